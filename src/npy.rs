@@ -1,0 +1,65 @@
+//! NumPy `.npy` files: volumes and point sets that users load with `numpy.load`.
+
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use npyz::WriterBuilder;
+
+use crate::error::{Error, Result};
+
+/// Writes `data` as a C-order NumPy array of the given shape.
+pub fn write<T: npyz::AutoSerialize>(
+    path: &Path,
+    shape: &[u64],
+    data: &[T],
+) -> Result<()> {
+    let io = |e: std::io::Error| Error::io(path, e);
+    let file = std::fs::File::create(path).map_err(io)?;
+    let mut out = BufWriter::new(file);
+    {
+        let mut writer = npyz::WriteOptions::new()
+            .default_dtype()
+            .shape(shape)
+            .writer(&mut out)
+            .begin_nd()
+            .map_err(io)?;
+        writer.extend(data.iter()).map_err(io)?;
+        writer.finish().map_err(io)?;
+    }
+    out.flush().map_err(io)
+}
+
+/// Reads a 2D array of float32 or float64 values (N rows of `columns` values) as f64 rows.
+pub fn read_rows(path: &Path) -> Result<(Vec<f64>, usize)> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let npy = npyz::NpyFile::new(&bytes[..])
+        .map_err(|e| Error::parse(path, None, format!("not a NumPy .npy file: {e}")))?;
+    let shape = npy.shape().to_vec();
+    let columns = match shape.as_slice() {
+        [_, c] => *c as usize,
+        _ => {
+            return Err(Error::parse(
+                path,
+                None,
+                format!("expected a 2D array (N x columns), found shape {shape:?}"),
+            ));
+        }
+    };
+    if npy.order() != npyz::Order::C {
+        return Err(Error::parse(path, None, "Fortran-order arrays are not supported; save with C order"));
+    }
+    let bad = |e: std::io::Error| Error::parse(path, None, format!("damaged array data: {e}"));
+    let dtype = npy.dtype();
+    let values: Vec<f64> = match dtype.descr().as_str() {
+        "<f8" => npy.into_vec::<f64>().map_err(bad)?,
+        "<f4" => npy.into_vec::<f32>().map_err(bad)?.into_iter().map(f64::from).collect(),
+        other => {
+            return Err(Error::parse(
+                path,
+                None,
+                format!("expected float32 or float64 values, found dtype {other}"),
+            ));
+        }
+    };
+    Ok((values, columns))
+}
