@@ -17,12 +17,14 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod field;
 pub mod geometry;
 pub mod grid;
 pub mod mesh;
 pub mod npy;
 
 pub use error::{Error, Result};
+pub use field::Field;
 pub use geometry::{Aabb, DVec3};
 pub use grid::{Grid, Resolution, Volume};
 pub use mesh::Mesh;
