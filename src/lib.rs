@@ -10,18 +10,22 @@
 //! |---|---|---|
 //! | read a mesh (OBJ, PLY, STL, OFF) | [`mesh`] | 3.2 |
 //! | place a voxel grid | [`grid`] | 4 |
+//! | voxelize: densities, robust inside/outside | [`voxelize`] | 4.1 |
+//! | signed distance, boundary voxels, surface points | [`distance`] | 4.2, 5.1, 5.3 |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate
 //! returns: implicit function values and signed distance volumes alike.
 #![warn(missing_docs)]
 
+pub mod distance;
 pub mod error;
 pub mod field;
 pub mod geometry;
 pub mod grid;
 pub mod mesh;
 pub mod npy;
+pub mod voxelize;
 
 pub use error::{Error, Result};
 pub use field::Field;

@@ -7,6 +7,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod common;
+mod volume;
+
 /// Turn polygon meshes into compact, smooth variational implicit surfaces, and use them.
 #[derive(Debug, Parser)]
 #[command(name = "implicitize", version, about, long_about = None)]
@@ -19,13 +22,22 @@ pub struct Cli {
 }
 
 #[derive(Debug, Subcommand)]
-enum Command {}
+enum Command {
+    /// Voxelize a mesh: densities in [0, 1], 1 inside (paper 4.1).
+    Voxelize(volume::VolumeArgs),
+    /// The signed distance of a mesh's voxelization, in voxels, inside positive (paper 4.2).
+    Sdf(volume::VolumeArgs),
+}
 
 
 /// Parses the command line and runs it.
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
-    let result: anyhow::Result<()> = match cli.command {};
+    let progress = common::Progress::new(cli.quiet);
+    let result: anyhow::Result<()> = match &cli.command {
+        Command::Voxelize(args) => volume::run(args, volume::VolumeKind::Density, progress),
+        Command::Sdf(args) => volume::run(args, volume::VolumeKind::SignedDistance, progress),
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -1,0 +1,301 @@
+//! The signed distance function of a voxelized shape (paper section 4.2), its boundary voxels
+//! ∂f, sub-voxel surface points (5.3) and its gradient (5.1).
+//!
+//! Where the paper used Danielsson's approximate method, [`signed_distance`] is the exact
+//! Euclidean distance transform of Felzenszwalb and Huttenlocher (lower envelopes of parabolas,
+//! one pass per axis), linear in the number of voxels and parallel over lines. It equals
+//! SciPy's `distance_transform_edt` with the convention
+//! `sd = where(inside, edt(inside) - 0.5, -(edt(~inside) - 0.5))`: positive inside, negative
+//! outside, in voxels, so voxels on either side of the surface are ±1/2.
+//!
+//! Positions are continuous voxel coordinates of the volume's grid (voxel centres at whole
+//! numbers), f64; the volumes themselves are f32, whose 24-bit mantissa holds every squared
+//! distance exactly on grids up to 2365 voxels along each axis.
+
+use rayon::prelude::*;
+
+use crate::geometry::DVec3;
+use crate::grid::Volume;
+
+/// Inside/outside from densities: inside where the density exceeds 1/2.
+pub fn inside(density: &Volume<f32>) -> Volume<bool> {
+    Volume { grid: density.grid, data: density.data.par_iter().map(|&d| d > 0.5).collect() }
+}
+
+/// The exact signed Euclidean distance transform of `inside`, in voxels, inside positive:
+/// an inside voxel gets its distance to the nearest outside voxel minus 1/2, an outside voxel
+/// minus (its distance to the nearest inside voxel minus 1/2).
+///
+/// A volume with no voxel of the other state gets +∞ (all inside) or -∞ (all outside).
+pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
+    let grid = inside.grid;
+    let [nx, ny, nz] = grid.dims;
+    let states = &inside.data;
+    let mut d2 = vec![0.0f32; grid.len()];
+    if grid.is_empty() {
+        return Volume { grid, data: d2 };
+    }
+    // Along k: rows are contiguous.
+    d2.par_chunks_mut(nz).zip(states.par_chunks(nz)).for_each(|(row, state)| {
+        row_distances(state, row);
+    });
+    // Along j: within each i-slab.
+    d2.par_chunks_mut(ny * nz).zip(states.par_chunks(ny * nz)).for_each(|(slab, state)| {
+        let mut line = Line::new(ny);
+        for k in 0..nz {
+            line.load(|j| (state[j * nz + k], slab[j * nz + k]));
+            line.solve(|j, d| slab[j * nz + k] = d);
+        }
+    });
+    // Along i: lines cross every slab, so j-planes are computed in parallel batches and
+    // written back after each batch.
+    let batch = (rayon::current_num_threads() * 4).max(1);
+    for first in (0..ny).step_by(batch) {
+        let planes: Vec<Vec<f32>> = (first..(first + batch).min(ny))
+            .into_par_iter()
+            .map(|j| {
+                let at = |i: usize, k: usize| (i * ny + j) * nz + k;
+                let mut plane = vec![0.0f32; nx * nz];
+                let mut line = Line::new(nx);
+                for k in 0..nz {
+                    line.load(|i| (states[at(i, k)], d2[at(i, k)]));
+                    line.solve(|i, d| plane[i * nz + k] = d);
+                }
+                plane
+            })
+            .collect();
+        for (j, plane) in (first..).zip(planes) {
+            for i in 0..nx {
+                let row = (i * ny + j) * nz;
+                d2[row..row + nz].copy_from_slice(&plane[i * nz..(i + 1) * nz]);
+            }
+        }
+    }
+    d2.par_iter_mut().zip(states.par_iter()).for_each(|(d, &inside)| {
+        // In f64 then rounded once, as SciPy's float64 result cast to float32.
+        let r = f64::from(*d).sqrt() - 0.5;
+        *d = if inside { r as f32 } else { -r as f32 };
+    });
+    Volume { grid, data: d2 }
+}
+
+/// Squared distances along one row from each voxel to the nearest voxel of the other state.
+fn row_distances(state: &[bool], out: &mut [f32]) {
+    let n = state.len();
+    let mut last: Option<usize> = None;
+    for q in 0..n {
+        if q > 0 && state[q - 1] != state[q] {
+            last = Some(q - 1);
+        }
+        out[q] = last.map_or(f32::INFINITY, |p| ((q - p) * (q - p)) as f32);
+    }
+    let mut next: Option<usize> = None;
+    for q in (0..n).rev() {
+        if q + 1 < n && state[q + 1] != state[q] {
+            next = Some(q + 1);
+        }
+        if let Some(p) = next {
+            out[q] = out[q].min(((p - q) * (p - q)) as f32);
+        }
+    }
+}
+
+/// Scratch space for the 1D lower envelope of parabolas along one line (Felzenszwalb and
+/// Huttenlocher), run once for the inside voxels and once for the outside ones.
+struct Line {
+    f: Vec<f64>,
+    state: Vec<bool>,
+    v: Vec<usize>,
+    z: Vec<f64>,
+}
+
+impl Line {
+    fn new(n: usize) -> Line {
+        Line { f: vec![0.0; n], state: vec![false; n], v: vec![0; n], z: vec![0.0; n + 1] }
+    }
+
+    /// Reads each voxel's state and squared distance so far with `get`.
+    fn load(&mut self, get: impl Fn(usize) -> (bool, f32)) {
+        for q in 0..self.f.len() {
+            let (s, d) = get(q);
+            self.state[q] = s;
+            self.f[q] = f64::from(d);
+        }
+    }
+
+    /// Writes with `set` each voxel's squared distance to the nearest voxel of the other
+    /// state, over the line and the distances loaded.
+    fn solve(&mut self, mut set: impl FnMut(usize, f32)) {
+        let n = self.f.len();
+        for side in [true, false] {
+            if !self.state.contains(&side) {
+                continue;
+            }
+            // For voxels of `side`, voxels of the other state are features at distance 0.
+            let f = |p: usize| if self.state[p] == side { self.f[p] } else { 0.0 };
+            let mut k = 0usize;
+            let mut any = false;
+            for q in 0..n {
+                let fq = f(q);
+                if !fq.is_finite() {
+                    continue;
+                }
+                if !any {
+                    any = true;
+                    self.v[0] = q;
+                    self.z[0] = f64::NEG_INFINITY;
+                    self.z[1] = f64::INFINITY;
+                    continue;
+                }
+                let cross = |p: usize| ((fq + (q * q) as f64) - (f(p) + (p * p) as f64)) / (2.0 * (q - p) as f64);
+                let mut s = cross(self.v[k]);
+                while s <= self.z[k] {
+                    k -= 1;
+                    s = cross(self.v[k]);
+                }
+                k += 1;
+                self.v[k] = q;
+                self.z[k] = s;
+                self.z[k + 1] = f64::INFINITY;
+            }
+            let mut k = 0usize;
+            for q in 0..n {
+                if self.state[q] != side {
+                    continue;
+                }
+                if !any {
+                    set(q, f32::INFINITY);
+                    continue;
+                }
+                while self.z[k + 1] < q as f64 {
+                    k += 1;
+                }
+                let p = self.v[k];
+                let dq = q as f64 - p as f64;
+                set(q, (dq * dq + f(p)) as f32);
+            }
+        }
+    }
+}
+
+/// The boundary voxels ∂f: inside voxels with a 6-neighbour outside, i.e. where `sd == 1/2`,
+/// sorted by index.
+pub fn boundary_voxels(sd: &Volume<f32>) -> Vec<[usize; 3]> {
+    let grid = sd.grid;
+    sd.data
+        .par_iter()
+        .enumerate()
+        .filter(|&(_, &d)| d == 0.5)
+        .map(|(index, _)| grid.voxel(index))
+        .collect()
+}
+
+/// The sub-voxel point near `voxel` where the density crosses 1/2 (paper 5.3), in continuous
+/// voxel coordinates.
+///
+/// Along each axis where a 6-neighbour lies on the other side of 1/2, the crossing is placed by
+/// linear interpolation of the two densities; the point is the mean of these crossings. With
+/// no such neighbour, one Newton step along the density's central-difference gradient, at
+/// most one voxel long; with a flat density, the voxel's centre.
+///
+/// # Panics
+/// If `voxel` lies outside the volume's grid.
+pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
+    let grid = density.grid;
+    let centre = DVec3::from_array(voxel.map(|x| x as f64));
+    let d0 = f64::from(*density.get(voxel)) - 0.5;
+    let mut sum = DVec3::ZERO;
+    let mut count = 0;
+    let mut gradient = DVec3::ZERO;
+    for axis in 0..3 {
+        let neighbour = |step: isize| -> Option<f64> {
+            let x = voxel[axis] as isize + step;
+            (0..grid.dims[axis] as isize).contains(&x).then(|| {
+                let mut n = voxel;
+                n[axis] = x as usize;
+                f64::from(*density.get(n)) - 0.5
+            })
+        };
+        let (below, above) = (neighbour(-1), neighbour(1));
+        for (step, d) in [(-1.0, below), (1.0, above)] {
+            if let Some(d) = d {
+                if (d > 0.0) != (d0 > 0.0) {
+                    let mut p = centre;
+                    p[axis] += step * d0 / (d0 - d);
+                    sum += p;
+                    count += 1;
+                }
+            }
+        }
+        gradient[axis] = match (below, above) {
+            (Some(b), Some(a)) => 0.5 * (a - b),
+            (Some(b), None) => d0 - b,
+            (None, Some(a)) => a - d0,
+            (None, None) => 0.0,
+        };
+    }
+    if count > 0 {
+        return sum / count as f64;
+    }
+    let g2 = gradient.length_squared();
+    if g2 == 0.0 {
+        return centre;
+    }
+    let step = -d0 * gradient / g2;
+    centre + step.clamp_length_max(1.0)
+}
+
+/// The value of `sd` at `p` by trilinear interpolation (bilinear on 2D grids), `p` clamped
+/// to the grid. Inside positive.
+pub fn sample(sd: &Volume<f32>, p: DVec3) -> f32 {
+    let (corners, w) = cell(sd, p);
+    let mut value = 0.0;
+    for (c, &index) in corners.iter().enumerate() {
+        let weight = (0..3).map(|a| if c >> a & 1 == 1 { w[a] } else { 1.0 - w[a] }).product::<f64>();
+        if weight != 0.0 {
+            value += weight * f64::from(sd.data[index]);
+        }
+    }
+    value as f32
+}
+
+/// The gradient of `sd` at `p`: central differences of the trilinear field [`sample`] over
+/// one voxel (half a voxel each side, clamped to the grid), in value per voxel. It points
+/// inward (uphill); z is 0 on 2D grids.
+pub fn gradient(sd: &Volume<f32>, p: DVec3) -> DVec3 {
+    let mut g = DVec3::ZERO;
+    for axis in 0..3 {
+        let n = sd.grid.dims[axis];
+        if n < 2 {
+            continue;
+        }
+        let max = (n - 1) as f64;
+        let x = p[axis].clamp(0.0, max);
+        let (lo, hi) = ((x - 0.5).max(0.0), (x + 0.5).min(max));
+        let (mut a, mut b) = (p, p);
+        a[axis] = lo;
+        b[axis] = hi;
+        g[axis] = f64::from(sample(sd, b) - sample(sd, a)) / (hi - lo);
+    }
+    g
+}
+
+/// The 8 voxel indices of the cell holding `p` (clamped) and the fractional position in it.
+fn cell(volume: &Volume<f32>, p: DVec3) -> ([usize; 8], [f64; 3]) {
+    let grid = volume.grid;
+    let mut lo = [0usize; 3];
+    let mut hi = [0usize; 3];
+    let mut w = [0.0; 3];
+    for axis in 0..3 {
+        let max = grid.dims[axis].saturating_sub(1);
+        let x = if p[axis].is_nan() { 0.0 } else { p[axis].clamp(0.0, max as f64) };
+        lo[axis] = (x.floor() as usize).min(max);
+        hi[axis] = (lo[axis] + 1).min(max);
+        w[axis] = x - lo[axis] as f64;
+    }
+    let corners = std::array::from_fn(|c| {
+        let pick = |a: usize| if c >> a & 1 == 1 { hi[a] } else { lo[a] };
+        grid.index([pick(0), pick(1), pick(2)])
+    });
+    (corners, w)
+}
