@@ -130,11 +130,11 @@ fn read_ascii(bytes: &[u8], mesh: &mut Welded) -> Result<()> {
     let mut closed = false;
     let mut last = Location::Line(1);
     for (at, line) in text::lines(bytes) {
-        last = at;
         let mut tokens = text::tokens(line);
         let Some(keyword) = tokens.next() else {
             continue;
         };
+        last = at;
         let keyword = keyword.to_ascii_lowercase();
         let error = |message: String| mesh.builder.error(at, message);
         match (keyword.as_slice(), facet.as_mut()) {
