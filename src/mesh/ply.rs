@@ -1,0 +1,338 @@
+//! Stanford PLY: ASCII, binary little endian and binary big endian.
+//!
+//! Built on `ply-rs-bw`: its parser reads the header and decodes one element at a time, and
+//! this module drives it element by element so that every error carries its place in the file
+//! (the line for ASCII, the byte offset where the element starts for binary). What it accepts:
+//! - a `vertex` element with scalar `x`, `y` and `z` properties of any numeric type (float and
+//!   double are usual), read as f64; other vertex properties (normals, colours) are ignored;
+//! - a `face` element with a `vertex_indices` (or `vertex_index`) list of any integer type
+//!   with any integer count type, indices from 0; faces with more than three corners become a
+//!   fan of triangles; other face properties are ignored;
+//! - any other elements, which are read past and ignored. In ASCII, blank lines between
+//!   elements are skipped.
+//!
+//! The writer writes binary little endian with double positions and `list uchar uint` faces,
+//! so a written mesh reads back exactly.
+
+use std::io::{self, Write};
+use std::path::Path;
+
+use ply_rs_bw::parser::{ParseError, Parser, Reader};
+use ply_rs_bw::ply::{
+    Addable, ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult,
+    PropertyDef, PropertyType, ScalarType,
+};
+use ply_rs_bw::writer::Writer;
+
+use crate::error::{Error, Location, Result};
+
+use super::assemble::Builder;
+use super::{Mesh, ReadReport};
+
+/// The names a face's index list goes by.
+const INDEX_LISTS: [&str; 2] = ["vertex_indices", "vertex_index"];
+
+/// The parts of an element this reader keeps, whichever element it is.
+#[derive(Default)]
+struct Element {
+    position: [f64; 3],
+    indices: Vec<i64>,
+}
+
+impl PropertyAccess for Element {
+    fn new() -> Self {
+        Element::default()
+    }
+
+    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        let axis = match name {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            _ if INDEX_LISTS.contains(&name) => return self.set_indices(property),
+            _ => return PropertyAccessResult::Ignored,
+        };
+        match as_number(&property) {
+            Some(value) => {
+                self.position[axis] = value;
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::UnsupportedType,
+        }
+    }
+}
+
+impl Element {
+    fn set_indices(&mut self, property: Property) -> PropertyAccessResult {
+        fn widen<T: Into<i64>>(list: Vec<T>) -> Vec<i64> {
+            list.into_iter().map(Into::into).collect()
+        }
+        self.indices = match property {
+            Property::ListChar(l) => widen(l),
+            Property::ListUChar(l) => widen(l),
+            Property::ListShort(l) => widen(l),
+            Property::ListUShort(l) => widen(l),
+            Property::ListInt(l) => widen(l),
+            Property::ListUInt(l) => widen(l),
+            _ => return PropertyAccessResult::UnsupportedType,
+        };
+        PropertyAccessResult::Set
+    }
+}
+
+/// A scalar property's value as f64.
+fn as_number(property: &Property) -> Option<f64> {
+    Some(match *property {
+        Property::Char(v) => v.into(),
+        Property::UChar(v) => v.into(),
+        Property::Short(v) => v.into(),
+        Property::UShort(v) => v.into(),
+        Property::Int(v) => v.into(),
+        Property::UInt(v) => v.into(),
+        Property::Float(v) => v.into(),
+        Property::Double(v) => v,
+        _ => return None,
+    })
+}
+
+/// Reads a PLY file's bytes; `path` names the file in messages.
+pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
+    let parser = Parser::<Element>::new();
+    let mut reader = Reader::new(bytes);
+    let header = parser
+        .read_header(&mut reader)
+        .map_err(|e| header_error(path, &e))?;
+    let body = reader.into_inner();
+    let vertex_count = check_header(&header, path)?;
+    let header_lines = bytes[..bytes.len() - body.len()]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count();
+    let mut payload = Payload {
+        parser,
+        encoding: header.encoding,
+        file: bytes,
+        rest: body,
+        line: header_lines,
+    };
+    let mut mesh = Builder::new(path);
+    let mut corners = Vec::new();
+    for (name, def) in &header.elements {
+        for i in 0..def.count {
+            let (element, at) = payload.next(def).map_err(|m| {
+                let (at, message) = m;
+                mesh.error(at, format!("{name} {i} of {}: {message}", def.count))
+            })?;
+            match name.as_str() {
+                "vertex" => mesh.vertex(element.position, at)?,
+                "face" => {
+                    corners.clear();
+                    for &c in &element.indices {
+                        corners.push(mesh.corner(c, vertex_count, at)?);
+                    }
+                    mesh.polygon(&corners, at)?;
+                }
+                _ => {}
+            }
+        }
+    }
+    mesh.finish()
+}
+
+/// Checks that the header declares what a mesh needs and returns the number of vertices.
+fn check_header(header: &Header, path: &Path) -> Result<usize> {
+    let error = |message: String| Error::parse(path, None, message);
+    let vertex = header
+        .elements
+        .get("vertex")
+        .ok_or_else(|| error("the header declares no 'vertex' element".into()))?;
+    for axis in ["x", "y", "z"] {
+        match vertex.properties.get(axis).map(|p| &p.data_type) {
+            Some(PropertyType::Scalar(_)) => {}
+            Some(PropertyType::List(..)) => {
+                return Err(error(format!(
+                    "vertex property '{axis}' is a list, not a number"
+                )));
+            }
+            None => {
+                return Err(error(format!(
+                    "the vertex element has no '{axis}' property"
+                )));
+            }
+        }
+    }
+    if let Some(face) = header.elements.get("face") {
+        let list = INDEX_LISTS.iter().find_map(|n| face.properties.get(*n));
+        match list.map(|p| &p.data_type) {
+            Some(PropertyType::List(_, ScalarType::Float | ScalarType::Double)) => {
+                return Err(error(
+                    "the face index list holds floating-point numbers".into(),
+                ));
+            }
+            Some(PropertyType::List(..)) => {}
+            _ => {
+                return Err(error(
+                    "the face element has no 'vertex_indices' list of integers".into(),
+                ));
+            }
+        }
+    }
+    Ok(vertex.count)
+}
+
+/// A header error, with the line ply-rs-bw found it on when it knows.
+fn header_error(path: &Path, e: &ParseError) -> Error {
+    let text = e.to_string();
+    let message = match e.line() {
+        Some(n) => text
+            .strip_prefix(&format!("Line {n}: "))
+            .unwrap_or(&text)
+            .to_string(),
+        None => text,
+    };
+    Error::parse(path, e.line().map(Location::Line), one_line(&message))
+}
+
+/// A parser message on one short line.
+fn one_line(message: &str) -> String {
+    let words = message.split_whitespace().collect::<Vec<_>>().join(" ");
+    match words.char_indices().nth(200) {
+        Some((cut, _)) => format!("{}...", &words[..cut]),
+        None => words,
+    }
+}
+
+/// The part of the file after the header, read one element at a time.
+struct Payload<'a> {
+    parser: Parser<Element>,
+    encoding: Encoding,
+    file: &'a [u8],
+    rest: &'a [u8],
+    /// The number of lines read so far (ASCII).
+    line: usize,
+}
+
+impl Payload<'_> {
+    /// Reads the next element of type `def` and says where it starts; an error says where
+    /// and what.
+    fn next(
+        &mut self,
+        def: &ElementDef,
+    ) -> std::result::Result<(Element, Location), (Location, String)> {
+        if self.encoding == Encoding::Ascii {
+            return self.next_ascii(def);
+        }
+        let at = Location::Byte((self.file.len() - self.rest.len()) as u64);
+        let read = match self.encoding {
+            Encoding::BinaryBigEndian => self.parser.read_big_endian_element(&mut self.rest, def),
+            _ => self.parser.read_little_endian_element(&mut self.rest, def),
+        };
+        read.map(|e| (e, at)).map_err(|e| {
+            if e.kind() == io::ErrorKind::UnexpectedEof {
+                (
+                    at,
+                    format!(
+                        "truncated: the file ends at byte {} inside this element",
+                        self.file.len()
+                    ),
+                )
+            } else {
+                (at, one_line(&e.to_string()))
+            }
+        })
+    }
+
+    fn next_ascii(
+        &mut self,
+        def: &ElementDef,
+    ) -> std::result::Result<(Element, Location), (Location, String)> {
+        loop {
+            if self.rest.is_empty() {
+                return Err((
+                    Location::Line(self.line),
+                    "truncated: the file ends before this element".into(),
+                ));
+            }
+            let end = self
+                .rest
+                .iter()
+                .position(|&b| b == b'\n')
+                .map_or(self.rest.len(), |p| p + 1);
+            let (line, rest) = self.rest.split_at(end);
+            self.rest = rest;
+            self.line += 1;
+            let at = Location::Line(self.line);
+            let line = line.trim_ascii();
+            if line.is_empty() {
+                continue;
+            }
+            let text = std::str::from_utf8(line)
+                .map_err(|_| (at, "the line is not ASCII text".to_string()))?;
+            return self
+                .parser
+                .read_ascii_element(text, def)
+                .map(|e| (e, at))
+                .map_err(|e| (at, one_line(&e.to_string())));
+        }
+    }
+}
+
+/// One vertex or triangle to write.
+struct Out {
+    position: [f64; 3],
+    corners: [u32; 3],
+}
+
+impl PropertyAccess for Out {
+    fn new() -> Self {
+        Out {
+            position: [0.0; 3],
+            corners: [0; 3],
+        }
+    }
+
+    fn get_double(&self, name: &str) -> Option<f64> {
+        ["x", "y", "z"]
+            .iter()
+            .position(|&a| a == name)
+            .map(|axis| self.position[axis])
+    }
+
+    fn get_list_uint(&self, name: &str) -> Option<&[u32]> {
+        (name == INDEX_LISTS[0]).then_some(&self.corners[..])
+    }
+}
+
+/// Writes `mesh` as binary little-endian PLY with double positions.
+pub(super) fn write(out: &mut impl Write, mesh: &Mesh) -> io::Result<()> {
+    let mut vertex = ElementDef::new("vertex".into());
+    vertex.count = mesh.vertices.len();
+    for axis in ["x", "y", "z"] {
+        vertex.properties.add(PropertyDef::new(
+            axis.into(),
+            PropertyType::Scalar(ScalarType::Double),
+        ));
+    }
+    let mut face = ElementDef::new("face".into());
+    face.count = mesh.triangles.len();
+    face.properties.add(PropertyDef::new(
+        INDEX_LISTS[0].into(),
+        PropertyType::List(ScalarType::UChar, ScalarType::UInt),
+    ));
+    let mut header = Header::new();
+    header.encoding = Encoding::BinaryLittleEndian;
+    header.elements.add(vertex.clone());
+    header.elements.add(face.clone());
+    let writer = Writer::<Out>::new();
+    writer.write_header(out, &header)?;
+    let mut element = Out::new();
+    for v in &mesh.vertices {
+        element.position = v.to_array();
+        writer.write_little_endian_element(out, &element, &vertex)?;
+    }
+    for t in &mesh.triangles {
+        element.corners = *t;
+        writer.write_little_endian_element(out, &element, &face)?;
+    }
+    Ok(())
+}
