@@ -10,6 +10,8 @@
 //! |---|---|---|
 //! | read a mesh (OBJ, PLY, STL, OFF) | [`mesh`] | 3.2 |
 //! | place a voxel grid | [`grid`] | 4 |
+//! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
+//! | save and load models | [`model`] | |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate
@@ -21,10 +23,14 @@ pub mod field;
 pub mod geometry;
 pub mod grid;
 pub mod mesh;
+pub mod model;
 pub mod npy;
+pub mod rbf;
 
 pub use error::{Error, Result};
 pub use field::Field;
 pub use geometry::{Aabb, DVec3};
 pub use grid::{Grid, Resolution, Volume};
 pub use mesh::Mesh;
+pub use model::Model;
+pub use rbf::{Constraint, ConstraintKind, Implicit, Kernel};
