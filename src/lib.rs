@@ -12,6 +12,8 @@
 //! | place a voxel grid | [`grid`] | 4 |
 //! | voxelize: densities, robust inside/outside | [`voxelize`] | 4.1 |
 //! | signed distance, boundary voxels, surface points | [`distance`] | 4.2, 5.1, 5.3 |
+//! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
+//! | save and load models | [`model`] | |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate
@@ -24,11 +26,15 @@ pub mod field;
 pub mod geometry;
 pub mod grid;
 pub mod mesh;
+pub mod model;
 pub mod npy;
 pub mod voxelize;
+pub mod rbf;
 
 pub use error::{Error, Result};
 pub use field::Field;
 pub use geometry::{Aabb, DVec3};
 pub use grid::{Grid, Resolution, Volume};
 pub use mesh::Mesh;
+pub use model::Model;
+pub use rbf::{Constraint, ConstraintKind, Implicit, Kernel};

@@ -1,0 +1,319 @@
+//! The model file: a fitted implicit surface as versioned JSON.
+//!
+//! A model is what the fit produces and what `eval`, polygonization and rendering read. The
+//! file is JSON:
+//!
+//! ```text
+//! {
+//!   "format": "implicitize-model",
+//!   "version": 1,
+//!   "sign": "inside positive, outside negative",
+//!   "bounds": { "min": [x, y, z], "max": [x, y, z] },      // the shape, in the mesh's units
+//!   "grid": { "dims": [..], "origin": [..], "voxel_size": h } | null,  // the fit's grid
+//!   "shape": {
+//!     "type": "rbf",
+//!     "kernel": "r2logr" | "r3" | "r",
+//!     "dimension": 2 | 3 | 4,
+//!     "centres": [[x, y, z], ...],            // the constraint positions, mesh units
+//!     "values": [h, ...],                     // the constraint values
+//!     "kinds": ["boundary" | "interior" | "exterior", ...],
+//!     "normalization": { "translate": [..], "scale": s },
+//!     "weights": [d, ...],
+//!     "polynomial": [p0, p1, ...],
+//!     "residual": r
+//!   },
+//!   "report": { ... } | null                  // the fit report, free form
+//! }
+//! ```
+//!
+//! The function is `f(x) = sum_j d_j phi(|x' - c'_j|) + p0 + sum_a p_a x'_a` with
+//! `x' = (x - translate) / scale` and `c'_j` the centres mapped the same way (see
+//! [`crate::rbf`]); it is positive inside and negative outside.
+//!
+//! `shape` is tagged by `type` so that other kinds of shape (a CSG tree of models, say) can be
+//! added as further variants in the same versioned format. Numbers are written in the shortest
+//! form that reads back to the same f64 (and read with correct rounding), so saving and loading
+//! reproduces every weight bit for bit.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Location, Result};
+use crate::field::Field;
+use crate::geometry::{Aabb, DVec3};
+use crate::grid::Grid;
+use crate::rbf::{Constraint, ConstraintKind, Implicit, Kernel, Normalization};
+
+/// The `format` field of every model file.
+pub const FORMAT: &str = "implicitize-model";
+
+/// The version of the format this crate writes and reads.
+pub const VERSION: u32 = 1;
+
+/// The `sign` field: the sign convention of every value the model gives.
+pub const SIGN: &str = "inside positive, outside negative";
+
+/// The shape a model describes.
+#[derive(Debug, Clone)]
+#[non_exhaustive]
+pub enum Shape {
+    /// A variational implicit function.
+    Rbf(Implicit),
+}
+
+impl Shape {
+    fn field(&self) -> &dyn Field {
+        match self {
+            Shape::Rbf(implicit) => implicit,
+        }
+    }
+}
+
+/// A fitted shape with its bounds, the grid it was fitted on and the fit report.
+#[derive(Debug, Clone)]
+pub struct Model {
+    shape: Shape,
+    bounds: Aabb,
+    grid: Option<Grid>,
+    report: Option<serde_json::Value>,
+}
+
+impl Model {
+    /// A model of `implicit`, whose shape lies in `bounds` (mesh units), fitted on `grid`.
+    pub fn from_implicit(implicit: Implicit, bounds: Aabb, grid: Option<Grid>) -> Model {
+        Model {
+            shape: Shape::Rbf(implicit),
+            bounds,
+            grid,
+            report: None,
+        }
+    }
+
+    /// The shape.
+    pub fn shape(&self) -> &Shape {
+        &self.shape
+    }
+
+    /// The variational implicit function, when the shape is one.
+    pub fn implicit(&self) -> Option<&Implicit> {
+        match &self.shape {
+            Shape::Rbf(implicit) => Some(implicit),
+        }
+    }
+
+    /// The bounds of the shape in the mesh's units, for polygonizing and rendering.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// The grid the model was fitted on, if any.
+    pub fn grid(&self) -> Option<&Grid> {
+        self.grid.as_ref()
+    }
+
+    /// The fit report, if any.
+    pub fn report(&self) -> Option<&serde_json::Value> {
+        self.report.as_ref()
+    }
+
+    /// Attaches the fit report.
+    pub fn set_report(&mut self, report: serde_json::Value) {
+        self.report = Some(report);
+    }
+
+    /// Writes the model as JSON to `path`.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let file = ModelFile {
+            format: FORMAT.into(),
+            version: VERSION,
+            sign: SIGN.into(),
+            bounds: BoundsFile {
+                min: self.bounds.min.to_array(),
+                max: self.bounds.max.to_array(),
+            },
+            grid: self.grid,
+            shape: match &self.shape {
+                Shape::Rbf(implicit) => ShapeFile::Rbf(RbfFile::of(implicit)),
+            },
+            report: self.report.clone(),
+        };
+        let json = serde_json::to_string_pretty(&file)
+            .expect("finite numbers and string keys always serialize");
+        std::fs::write(path, json + "\n").map_err(|e| Error::io(path, e))
+    }
+
+    /// Reads a model from `path`. A file that is not JSON, not a model, of another version, or
+    /// whose parts do not fit together gives an error naming the file.
+    pub fn load(path: &Path) -> Result<Model> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let json_error = |e: serde_json::Error| {
+            let at = (e.line() > 0).then_some(Location::Line(e.line()));
+            Error::parse(path, at, format!("not a valid model file: {e}"))
+        };
+        let header: Header = serde_json::from_slice(&bytes).map_err(json_error)?;
+        if header.format.as_deref() != Some(FORMAT) {
+            return Err(Error::parse(
+                path,
+                None,
+                format!("not an implicitize model (\"format\" is not \"{FORMAT}\")"),
+            ));
+        }
+        if header.version != Some(u64::from(VERSION)) {
+            return Err(Error::parse(
+                path,
+                None,
+                format!(
+                    "model format version {} is not supported; this build reads version {VERSION}",
+                    header.version.map_or("(missing)".into(), |v| v.to_string())
+                ),
+            ));
+        }
+        let file: ModelFile = serde_json::from_slice(&bytes).map_err(json_error)?;
+        if file.sign != SIGN {
+            return Err(Error::parse(
+                path,
+                None,
+                format!("unknown sign convention {:?}, expected {SIGN:?}", file.sign),
+            ));
+        }
+        let context = path.display().to_string();
+        let shape = match file.shape {
+            ShapeFile::Rbf(rbf) => Shape::Rbf(rbf.into_implicit(&context)?),
+        };
+        let [min, max] = [file.bounds.min, file.bounds.max].map(DVec3::from_array);
+        if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
+            return Err(Error::invalid(
+                context,
+                "the bounds are not finite with min <= max",
+            ));
+        }
+        Ok(Model {
+            shape,
+            bounds: Aabb { min, max },
+            grid: file.grid,
+            report: file.report,
+        })
+    }
+}
+
+impl Field for Model {
+    /// The shape's value: positive inside, negative outside.
+    fn value(&self, p: DVec3) -> f64 {
+        self.shape.field().value(p)
+    }
+
+    /// The shape's gradient, pointing inside.
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        self.shape.field().gradient(p)
+    }
+
+    /// The shape's values at many points, vectorized and in parallel.
+    fn values(&self, points: &[DVec3]) -> Vec<f64> {
+        self.shape.field().values(points)
+    }
+}
+
+/// The fields read first, to tell a wrong file or version from a damaged one.
+#[derive(Deserialize)]
+struct Header {
+    format: Option<String>,
+    version: Option<u64>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ModelFile {
+    format: String,
+    version: u32,
+    sign: String,
+    bounds: BoundsFile,
+    grid: Option<Grid>,
+    shape: ShapeFile,
+    report: Option<serde_json::Value>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BoundsFile {
+    min: [f64; 3],
+    max: [f64; 3],
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
+enum ShapeFile {
+    Rbf(RbfFile),
+}
+
+#[derive(Serialize, Deserialize)]
+struct RbfFile {
+    kernel: Kernel,
+    dimension: usize,
+    centres: Vec<Vec<f64>>,
+    values: Vec<f64>,
+    kinds: Vec<ConstraintKind>,
+    normalization: Normalization,
+    weights: Vec<f64>,
+    polynomial: Vec<f64>,
+    residual: f64,
+}
+
+impl RbfFile {
+    fn of(implicit: &Implicit) -> RbfFile {
+        let constraints = implicit.constraints();
+        RbfFile {
+            kernel: implicit.kernel(),
+            dimension: implicit.dim(),
+            centres: constraints.iter().map(|c| c.position().to_vec()).collect(),
+            values: constraints.iter().map(|c| c.value()).collect(),
+            kinds: constraints.iter().map(|c| c.kind()).collect(),
+            normalization: implicit.normalization().clone(),
+            weights: implicit.weights().to_vec(),
+            polynomial: implicit.polynomial().to_vec(),
+            residual: implicit.residual(),
+        }
+    }
+
+    fn into_implicit(self, context: &str) -> Result<Implicit> {
+        let n = self.centres.len();
+        if self.values.len() != n || self.kinds.len() != n {
+            return Err(Error::invalid(
+                context,
+                format!(
+                    "{n} centres but {} values and {} kinds",
+                    self.values.len(),
+                    self.kinds.len()
+                ),
+            ));
+        }
+        if let Some(i) = (0..n).find(|&i| ConstraintKind::of_value(self.values[i]) != self.kinds[i])
+        {
+            return Err(Error::invalid(
+                context,
+                format!(
+                    "centre {} has value {} but kind {:?}",
+                    i + 1,
+                    self.values[i],
+                    self.kinds[i]
+                ),
+            ));
+        }
+        let constraints = self
+            .centres
+            .iter()
+            .zip(&self.values)
+            .map(|(c, &v)| Constraint::new(c, v))
+            .collect();
+        Implicit::from_parts(
+            context,
+            self.dimension,
+            self.kernel,
+            constraints,
+            self.normalization,
+            self.weights,
+            self.polynomial,
+            self.residual,
+        )
+    }
+}
