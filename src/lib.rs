@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | read a mesh (OBJ, PLY, STL, OFF) | [`mesh`] | 3.2 |
 //! | place a voxel grid | [`grid`] | 4 |
+//! | extract a surface as a mesh | [`polygonize`] | 5.2, figures |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate
@@ -22,9 +23,11 @@ pub mod geometry;
 pub mod grid;
 pub mod mesh;
 pub mod npy;
+pub mod polygonize;
 
 pub use error::{Error, Result};
 pub use field::Field;
 pub use geometry::{Aabb, DVec3};
 pub use grid::{Grid, Resolution, Volume};
 pub use mesh::Mesh;
+pub use polygonize::{polygonize, polygonize_field};
