@@ -14,6 +14,7 @@
 //! | signed distance, boundary voxels, surface points | [`distance`] | 4.2, 5.1, 5.3 |
 //! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
 //! | save and load models | [`model`] | |
+//! | extract a surface as a mesh | [`polygonize`] | 5.2, figures |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate
@@ -30,6 +31,7 @@ pub mod model;
 pub mod npy;
 pub mod voxelize;
 pub mod rbf;
+pub mod polygonize;
 
 pub use error::{Error, Result};
 pub use field::Field;
@@ -38,3 +40,4 @@ pub use grid::{Grid, Resolution, Volume};
 pub use mesh::Mesh;
 pub use model::Model;
 pub use rbf::{Constraint, ConstraintKind, Implicit, Kernel};
+pub use polygonize::{polygonize, polygonize_field};

@@ -1,0 +1,413 @@
+//! Marching tetrahedra over a volume, in parallel over slabs of `i` layers.
+//!
+//! Each slab owns the surface vertices on the grid edges that start in its layers, and keeps
+//! them in rolling per-layer maps from edge to vertex index (three in-plane directions per
+//! layer, four directions to the next layer), so a vertex is made once and shared by every
+//! triangle that uses it. The in-plane edges of the layer just past a slab belong to the next
+//! slab; triangles that use them carry [`EXTERNAL`] references that are resolved once every
+//! slab is done. Nothing is allocated per voxel: a slab allocates its maps once.
+
+use rayon::prelude::*;
+
+use super::tables::{CASES, EdgeId, Piece, edge_base, edge_direction, offset};
+use crate::geometry::DVec3;
+use crate::grid::{Grid, Volume};
+use crate::mesh::Mesh;
+
+/// How far from an edge's ends a vertex is kept, as a fraction of the edge.
+///
+/// A value exactly at the iso level counts as inside, which would put every vertex on the
+/// edges around that voxel at its centre and collapse their triangles to zero area. Keeping
+/// vertices this far inside their edges keeps every triangle's corners apart (a triangle's
+/// corners lie on three distinct edges of one tetrahedron, never all on a line through a
+/// corner) at the cost of at most 0.002 voxel of position.
+pub(super) const END_MARGIN: f64 = 1e-3;
+
+/// Marks a triangle corner that refers to the next slab's first layer.
+const EXTERNAL: u32 = 1 << 31;
+
+/// A volume value: f32 for stored volumes, f64 for sampled fields.
+pub(super) trait Sample: Copy + Send + Sync + PartialOrd + Into<f64> {}
+impl Sample for f32 {}
+impl Sample for f64 {}
+
+/// A surface vertex and the grid edge it lies on.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct EdgeVertex {
+    /// Position in the mesh's own units.
+    pub position: DVec3,
+    /// Linear index of the edge's base voxel.
+    pub base: usize,
+    /// Direction of the edge from its base (axis mask, 1..=7).
+    pub direction: u8,
+}
+
+/// The extracted surface before it becomes a [`Mesh`].
+#[derive(Debug, Default)]
+pub(super) struct Surface {
+    pub vertices: Vec<EdgeVertex>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Surface {
+    pub(super) fn into_mesh(self) -> Mesh {
+        Mesh {
+            vertices: self.vertices.into_iter().map(|v| v.position).collect(),
+            triangles: self.triangles,
+        }
+    }
+}
+
+/// Whether a value counts as inside (at or above the iso level; NaN is outside).
+#[inline(always)]
+fn inside<T: Sample>(value: T, iso: T) -> bool {
+    value >= iso
+}
+
+/// Where the iso level crosses an edge from value `a` (t = 0) to `b` (t = 1), kept within
+/// [`END_MARGIN`] of the ends.
+#[inline]
+pub(super) fn crossing<T: Sample>(a: T, b: T, iso: T) -> f64 {
+    let (a, b, iso): (f64, f64, f64) = (a.into(), b.into(), iso.into());
+    let t = (iso - a) / (b - a);
+    if t.is_nan() { 0.5 } else { t.clamp(END_MARGIN, 1.0 - END_MARGIN) }
+}
+
+/// Row classes: every value of a row of `k` outside, every value inside, or some of each.
+const ALL_OUTSIDE: u8 = 0;
+const ALL_INSIDE: u8 = 1;
+const MIXED: u8 = 2;
+
+/// Extracts the iso-surface of `volume` at `iso` (inside is `>= iso`).
+pub(super) fn extract<T: Sample>(volume: &Volume<T>, iso: T) -> Surface {
+    let grid = &volume.grid;
+    assert_eq!(
+        volume.data.len(),
+        grid.len(),
+        "a volume must hold one value per voxel of its grid"
+    );
+    let [nx, ny, nz] = grid.dims;
+    if nx < 2 || ny < 2 || nz < 2 {
+        return Surface::default();
+    }
+    let rows: Vec<u8> = volume.data.par_chunks(nz).map(|row| classify(row, iso)).collect();
+    let slab = Slabber { volume, iso, rows: &rows };
+    let count = (rayon::current_num_threads() * 4).clamp(1, nx - 1);
+    let slabs: Vec<SlabSurface> = (0..count)
+        .into_par_iter()
+        .map(|s| slab.march(s * nx / count, (s + 1) * nx / count))
+        .collect();
+    stitch(slabs)
+}
+
+fn classify<T: Sample>(row: &[T], iso: T) -> u8 {
+    let first = inside(row[0], iso);
+    if row.iter().all(|&v| inside(v, iso) == first) {
+        if first { ALL_INSIDE } else { ALL_OUTSIDE }
+    } else {
+        MIXED
+    }
+}
+
+/// Whether rows of these classes can hold no crossing between any of their values.
+#[inline]
+fn uniform(classes: &[u8]) -> bool {
+    classes[0] != MIXED && classes.iter().all(|&c| c == classes[0])
+}
+
+/// The surface of one slab, with vertex indices local to it.
+struct SlabSurface {
+    vertices: Vec<EdgeVertex>,
+    triangles: Vec<[u32; 3]>,
+    /// The vertex map of the in-plane edges of the slab's first layer.
+    first_layer: Vec<u32>,
+}
+
+/// Marches the slabs of one volume.
+struct Slabber<'a, T> {
+    volume: &'a Volume<T>,
+    iso: T,
+    rows: &'a [u8],
+}
+
+/// In-plane directions (y, z, yz) and their slots in a layer map.
+const IN_PLANE: [(u8, usize); 3] = [(2, 0), (4, 1), (6, 2)];
+/// Directions to the next layer (x, xy, xz, xyz) and their slots in a cross map.
+const ACROSS: [(u8, usize); 4] = [(1, 0), (3, 1), (5, 2), (7, 3)];
+
+/// Which map holds an edge's vertex, seen from the cube it belongs to.
+#[derive(Clone, Copy)]
+enum MapKind {
+    /// In-plane edges of the cube's first layer.
+    Layer,
+    /// Edges from the cube's first layer to its second.
+    Across,
+    /// In-plane edges of the cube's second layer.
+    NextLayer,
+}
+
+/// Where a cube edge's vertex is kept: the map, the (j, k) offset and the slot.
+#[derive(Clone, Copy)]
+struct EdgeSlot {
+    map: MapKind,
+    dj: usize,
+    dk: usize,
+    slot: usize,
+}
+
+fn edge_slot(e: EdgeId) -> EdgeSlot {
+    let (base, dir) = (edge_base(e), edge_direction(e));
+    let (dj, dk) = ((base >> 1 & 1) as usize, (base >> 2 & 1) as usize);
+    let (map, slot) = match (base & 1, dir & 1) {
+        (1, _) => (MapKind::NextLayer, (dir >> 1) as usize - 1),
+        (_, 1) => (MapKind::Across, (dir >> 1) as usize),
+        _ => (MapKind::Layer, (dir >> 1) as usize - 1),
+    };
+    EdgeSlot { map, dj, dk, slot }
+}
+
+impl<T: Sample> Slabber<'_, T> {
+    fn grid(&self) -> &Grid {
+        &self.volume.grid
+    }
+
+    #[inline(always)]
+    fn value(&self, i: usize, j: usize, k: usize) -> T {
+        self.volume.data[self.grid().index([i, j, k])]
+    }
+
+    #[inline(always)]
+    fn row_class(&self, i: usize, j: usize) -> u8 {
+        self.rows[i * self.grid().dims[1] + j]
+    }
+
+    /// Marches the cubes of layers `i0..i1` (and owns the vertices starting in them).
+    fn march(&self, i0: usize, i1: usize) -> SlabSurface {
+        let [nx, ny, nz] = self.grid().dims;
+        let plane = ny * nz;
+        let mut out = SlabSurface { vertices: Vec::new(), triangles: Vec::new(), first_layer: Vec::new() };
+        let mut layer = vec![0u32; 3 * plane];
+        let mut next = vec![0u32; 3 * plane];
+        let mut across = vec![0u32; 4 * plane];
+        self.layer_vertices(i0, &mut layer, &mut out.vertices);
+        out.first_layer = layer.clone();
+        for i in i0..i1.min(nx - 1) {
+            self.across_vertices(i, &mut across, &mut out.vertices);
+            let next_is_ours = i + 1 < i1;
+            if next_is_ours {
+                self.layer_vertices(i + 1, &mut next, &mut out.vertices);
+            }
+            let maps = [&layer[..], &across[..], if next_is_ours { &next[..] } else { &[] }];
+            self.march_layer(i, maps, &mut out.triangles);
+            std::mem::swap(&mut layer, &mut next);
+        }
+        assert!(out.vertices.len() < EXTERNAL as usize, "too many surface vertices for u32 indices");
+        out
+    }
+
+    /// Adds the vertex on the edge from voxel `(i, j, k)` along `direction` if the surface
+    /// crosses it, and records its index in `map[slot]`.
+    #[inline(always)]
+    fn edge_vertex(
+        &self,
+        [i, j, k]: [usize; 3],
+        a: T,
+        direction: u8,
+        slot: &mut u32,
+        vertices: &mut Vec<EdgeVertex>,
+    ) {
+        let d = |bit: u8| (direction >> bit & 1) as usize;
+        let b = self.value(i + d(0), j + d(1), k + d(2));
+        if inside(a, self.iso) == inside(b, self.iso) {
+            return;
+        }
+        let t = crossing(a, b, self.iso);
+        let g = DVec3::new(i as f64, j as f64, k as f64) + t * offset(direction);
+        *slot = vertices.len() as u32;
+        vertices.push(EdgeVertex {
+            position: self.grid().to_world(g),
+            base: self.grid().index([i, j, k]),
+            direction,
+        });
+    }
+
+    /// Makes the vertices on the in-plane edges of layer `i`.
+    fn layer_vertices(&self, i: usize, map: &mut [u32], vertices: &mut Vec<EdgeVertex>) {
+        let [_, ny, nz] = self.grid().dims;
+        for j in 0..ny {
+            let here = self.row_class(i, j);
+            let beside = if j + 1 < ny { self.row_class(i, j + 1) } else { here };
+            if uniform(&[here, beside]) {
+                continue;
+            }
+            for k in 0..nz {
+                let a = self.value(i, j, k);
+                let cell = &mut map[(j * nz + k) * 3..][..3];
+                for (direction, slot) in IN_PLANE {
+                    let dy = direction >> 1 & 1 == 1;
+                    let dz = direction >> 2 & 1 == 1;
+                    if (dy && j + 1 == ny) || (dz && k + 1 == nz) {
+                        continue;
+                    }
+                    self.edge_vertex([i, j, k], a, direction, &mut cell[slot], vertices);
+                }
+            }
+        }
+    }
+
+    /// Makes the vertices on the edges from layer `i` to layer `i + 1`.
+    fn across_vertices(&self, i: usize, map: &mut [u32], vertices: &mut Vec<EdgeVertex>) {
+        let [_, ny, nz] = self.grid().dims;
+        for j in 0..ny {
+            let here = self.row_class(i, j);
+            let ahead = self.row_class(i + 1, j);
+            let diagonal = if j + 1 < ny { self.row_class(i + 1, j + 1) } else { ahead };
+            if uniform(&[here, ahead, diagonal]) {
+                continue;
+            }
+            for k in 0..nz {
+                let a = self.value(i, j, k);
+                let cell = &mut map[(j * nz + k) * 4..][..4];
+                for (direction, slot) in ACROSS {
+                    let dy = direction >> 1 & 1 == 1;
+                    let dz = direction >> 2 & 1 == 1;
+                    if (dy && j + 1 == ny) || (dz && k + 1 == nz) {
+                        continue;
+                    }
+                    self.edge_vertex([i, j, k], a, direction, &mut cell[slot], vertices);
+                }
+            }
+        }
+    }
+
+    /// Emits the triangles of the cubes between layers `i` and `i + 1`. `maps` holds the
+    /// vertex maps of layer `i`, of the edges across, and of layer `i + 1` (empty when that
+    /// layer belongs to the next slab).
+    fn march_layer(&self, i: usize, maps: [&[u32]; 3], triangles: &mut Vec<[u32; 3]>) {
+        let [_, ny, nz] = self.grid().dims;
+        let slots: [EdgeSlot; 64] = std::array::from_fn(|e| edge_slot(e as EdgeId));
+        let iso = self.iso;
+        for j in 0..ny - 1 {
+            let classes = [
+                self.row_class(i, j),
+                self.row_class(i, j + 1),
+                self.row_class(i + 1, j),
+                self.row_class(i + 1, j + 1),
+            ];
+            if uniform(&classes) {
+                continue;
+            }
+            // The four rows of corners, in corner-bit order (x is bit 0, y bit 1).
+            let row = |c: usize| {
+                let start = self.grid().index([i + (c & 1), j + (c >> 1), 0]);
+                &self.volume.data[start..start + nz]
+            };
+            let corner_rows = [row(0), row(1), row(2), row(3)];
+            let column = |k: usize| {
+                corner_rows.iter().enumerate().fold(0u8, |bits, (c, r)| {
+                    bits | (inside(r[k], iso) as u8) << c
+                })
+            };
+            let mut low = column(0);
+            for k in 0..nz - 1 {
+                let high = column(k + 1);
+                let case = low | high << 4;
+                low = high;
+                if case == 0 || case == 255 {
+                    continue;
+                }
+                let lookup = |e: EdgeId| -> u32 {
+                    let s = slots[e as usize];
+                    let at = ((j + s.dj) * nz + k + s.dk) * 3 + s.slot;
+                    match s.map {
+                        MapKind::Layer => maps[0][at],
+                        MapKind::Across => maps[1][((j + s.dj) * nz + k + s.dk) * 4 + s.slot],
+                        MapKind::NextLayer if maps[2].is_empty() => EXTERNAL | at as u32,
+                        MapKind::NextLayer => maps[2][at],
+                    }
+                };
+                for piece in CASES.pieces(case) {
+                    self.emit(piece, [i, j, k], lookup, triangles);
+                }
+            }
+        }
+    }
+
+    /// Emits one tetrahedron's piece of cube `(i, j, k)`; a quad is split along its shorter
+    /// diagonal.
+    #[inline]
+    fn emit(
+        &self,
+        piece: &Piece,
+        cube: [usize; 3],
+        lookup: impl Fn(EdgeId) -> u32,
+        triangles: &mut Vec<[u32; 3]>,
+    ) {
+        let e = piece.edges;
+        let [a, b, c] = [lookup(e[0]), lookup(e[1]), lookup(e[2])];
+        if piece.len == 3 {
+            triangles.push([a, b, c]);
+            return;
+        }
+        let d = lookup(e[3]);
+        let p = e.map(|edge| self.edge_point(cube, edge));
+        if p[0].distance_squared(p[2]) <= p[1].distance_squared(p[3]) {
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        } else {
+            triangles.push([a, b, d]);
+            triangles.push([b, c, d]);
+        }
+    }
+
+    /// The crossing on cube edge `e` of cube `(i, j, k)`, in voxel coordinates relative to the
+    /// cube.
+    #[inline]
+    fn edge_point(&self, [i, j, k]: [usize; 3], e: EdgeId) -> DVec3 {
+        let (base, dir) = (edge_base(e), edge_direction(e));
+        let at = |m: u8| {
+            let d = |bit: u8| (m >> bit & 1) as usize;
+            self.value(i + d(0), j + d(1), k + d(2))
+        };
+        offset(base) + crossing(at(base), at(base | dir), self.iso) * offset(dir)
+    }
+}
+
+/// Joins the slabs into one surface, resolving references to each next slab's first layer.
+fn stitch(slabs: Vec<SlabSurface>) -> Surface {
+    let mut vertex_start = Vec::with_capacity(slabs.len());
+    let (mut nv, mut nt) = (0usize, 0usize);
+    for s in &slabs {
+        vertex_start.push(nv);
+        nv += s.vertices.len();
+        nt += s.triangles.len();
+    }
+    assert!(nv <= u32::MAX as usize, "too many surface vertices for u32 indices");
+    let mut triangles = vec![[0u32; 3]; nt];
+    let mut rest = &mut triangles[..];
+    let mut parts = Vec::with_capacity(slabs.len());
+    for s in &slabs {
+        let (part, tail) = rest.split_at_mut(s.triangles.len());
+        parts.push(part);
+        rest = tail;
+    }
+    parts.into_par_iter().enumerate().for_each(|(n, part)| {
+        let own = vertex_start[n] as u32;
+        let resolve = |v: u32| {
+            if v & EXTERNAL == 0 {
+                own + v
+            } else {
+                let next = &slabs[n + 1];
+                vertex_start[n + 1] as u32 + next.first_layer[(v & !EXTERNAL) as usize]
+            }
+        };
+        for (out, t) in part.iter_mut().zip(&slabs[n].triangles) {
+            *out = t.map(resolve);
+        }
+    });
+    let mut vertices = Vec::with_capacity(nv);
+    for s in slabs {
+        vertices.extend(s.vertices);
+    }
+    Surface { vertices, triangles }
+}
