@@ -10,6 +10,7 @@
 //! |---|---|---|
 //! | read a mesh (OBJ, PLY, STL, OFF) | [`mesh`] | 3.2 |
 //! | place a voxel grid | [`grid`] | 4 |
+//! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate
@@ -22,6 +23,7 @@ pub mod geometry;
 pub mod grid;
 pub mod mesh;
 pub mod npy;
+pub mod render;
 
 pub use error::{Error, Result};
 pub use field::Field;
