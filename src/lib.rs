@@ -15,6 +15,7 @@
 //! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
 //! | save and load models | [`model`] | |
 //! | extract a surface as a mesh | [`polygonize`] | 5.2, figures |
+//! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate
@@ -32,6 +33,7 @@ pub mod npy;
 pub mod voxelize;
 pub mod rbf;
 pub mod polygonize;
+pub mod render;
 
 pub use error::{Error, Result};
 pub use field::Field;
