@@ -127,8 +127,7 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
         .filter(|(_, d)| !d.properties.is_empty())
     {
         for i in 0..def.count {
-            let (element, at) = payload.next(def).map_err(|m| {
-                let (at, message) = m;
+            let (element, at) = payload.next(def).map_err(|(at, message)| {
                 mesh.error(at, format!("{name} {i} of {}: {message}", def.count))
             })?;
             match name.as_str() {
