@@ -23,6 +23,22 @@
 //! with shared vertices like the other formats.
 //!
 //! Each format's module says which crate it uses and, where it reads by hand, why.
+//!
+//! # Example
+//! ```
+//! use std::path::Path;
+//! use implicitize::mesh::{self, Format};
+//!
+//! let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
+//! let (tetrahedron, report) = mesh::read_bytes(obj, Format::Obj, Path::new("tet.obj"))?;
+//! assert_eq!((tetrahedron.vertices.len(), tetrahedron.triangles.len()), (4, 4));
+//! assert_eq!(report.degenerate_dropped, 0);
+//!
+//! let bad = mesh::read_bytes(b"v 0 0 0\nf 1 2 3\n", Format::Obj, Path::new("bad.obj"));
+//! let message = bad.unwrap_err().to_string();
+//! assert!(message.starts_with("bad.obj (line 2): vertex index 2 out of range"));
+//! # Ok::<(), implicitize::Error>(())
+//! ```
 
 use std::fs::File;
 use std::io::{BufWriter, Write};

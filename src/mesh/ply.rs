@@ -11,6 +11,8 @@
 //! - any other elements, which are read past and ignored. In ASCII, blank lines between
 //!   elements are skipped.
 //!
+//! Reading takes time in proportion to the file's size, whatever counts its header declares.
+//!
 //! The writer writes binary little endian with double positions and `list uchar uint` faces,
 //! so a written mesh reads back exactly.
 
@@ -117,10 +119,15 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
     };
     let mut mesh = Builder::new(path);
     let mut corners = Vec::new();
-    for (name, def) in &header.elements {
+    // An element without properties takes no bytes (and, in ASCII, blank lines, which are
+    // skipped anyway): skip it rather than count through however many the header claims.
+    for (name, def) in header
+        .elements
+        .iter()
+        .filter(|(_, d)| !d.properties.is_empty())
+    {
         for i in 0..def.count {
-            let (element, at) = payload.next(def).map_err(|m| {
-                let (at, message) = m;
+            let (element, at) = payload.next(def).map_err(|(at, message)| {
                 mesh.error(at, format!("{name} {i} of {}: {message}", def.count))
             })?;
             match name.as_str() {

@@ -1,4 +1,4 @@
-//! Line and token helpers shared by the text readers (OBJ, OFF, ASCII STL). They work on bytes,
+//! Line and token functions shared by the text readers (OBJ, OFF, ASCII STL). They work on bytes,
 //! so a file that is not UTF-8 fails at the token that is not a number, with its line.
 
 use std::str::FromStr;
