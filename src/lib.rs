@@ -14,6 +14,8 @@
 //! | signed distance, boundary voxels, surface points | [`distance`] | 4.2, 5.1, 5.3 |
 //! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
 //! | save and load models | [`model`] | |
+//! | error metrics E, Ew, RMS and the radius of regularity | [`metrics`] | 4.3 |
+//! | the iterative fit and its report | [`fit`] | 3.2, 5 |
 //! | extract a surface as a mesh | [`polygonize`] | 5.2, figures |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //!
@@ -30,10 +32,12 @@ pub mod grid;
 pub mod mesh;
 pub mod model;
 pub mod npy;
-pub mod voxelize;
-pub mod rbf;
+pub mod fit;
+pub mod metrics;
 pub mod polygonize;
+pub mod rbf;
 pub mod render;
+pub mod voxelize;
 
 pub use error::{Error, Result};
 pub use field::Field;

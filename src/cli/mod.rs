@@ -8,6 +8,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod common;
+mod fit;
+mod polygonize;
 mod volume;
 
 /// Turn polygon meshes into compact, smooth variational implicit surfaces, and use them.
@@ -23,18 +25,26 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Fit the built-in triceratops and write the model, report and surface to a folder.
+    Demo(fit::DemoCommand),
+    /// Fit a variational implicit surface to a mesh (paper 5).
+    Fit(fit::FitCommand),
+    /// Polygonize a model's zero set into a mesh file.
+    Mesh(polygonize::MeshCommand),
     /// Voxelize a mesh: densities in [0, 1], 1 inside (paper 4.1).
     Voxelize(volume::VolumeArgs),
     /// The signed distance of a mesh's voxelization, in voxels, inside positive (paper 4.2).
     Sdf(volume::VolumeArgs),
 }
 
-
 /// Parses the command line and runs it.
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let progress = common::Progress::new(cli.quiet);
     let result: anyhow::Result<()> = match &cli.command {
+        Command::Demo(args) => fit::demo(args, progress),
+        Command::Fit(args) => fit::run(args, progress),
+        Command::Mesh(args) => polygonize::run(args, progress),
         Command::Voxelize(args) => volume::run(args, volume::VolumeKind::Density, progress),
         Command::Sdf(args) => volume::run(args, volume::VolumeKind::SignedDistance, progress),
     };

@@ -1,0 +1,167 @@
+//! `implicitize fit` and `implicitize demo`: the iterative fit of paper 5 on a mesh file, or on
+//! the built-in triceratops.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use implicitize::fit::{self, FitOptions, FitReport, Goal};
+use implicitize::model::Model;
+use implicitize::{Mesh, mesh, polygonize, voxelize};
+
+use super::common::{GridArgs, Progress, read_mesh};
+
+/// How the constraints are made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// The paper's iterative method (section 5).
+    Iterative,
+    /// The paper's simple method (section 3.2): mesh vertices and normal offsets.
+    Naive,
+}
+
+/// The options of the fit itself, shared by `fit` and `demo`.
+#[derive(Debug, Args)]
+pub struct FitArgs {
+    #[command(flatten)]
+    pub grid: GridArgs,
+    /// Seed of the random choice of initial constraints (same seed, same model).
+    #[arg(long, default_value_t = FitOptions::default().seed)]
+    pub seed: u64,
+    /// Stop after this many iterations.
+    #[arg(long, default_value_t = FitOptions::default().max_iterations)]
+    pub max_iterations: usize,
+    /// Stop once the max error E is at most this many voxels.
+    #[arg(long, default_value_t = FitOptions::default().target_error)]
+    pub target_error: f32,
+    /// Never use more constraints than this.
+    #[arg(long, default_value_t = FitOptions::default().max_constraints)]
+    pub max_constraints: usize,
+    /// How the constraints are made.
+    #[arg(long, value_enum, default_value_t = Method::Iterative)]
+    pub method: Method,
+}
+
+impl FitArgs {
+    fn options(&self) -> FitOptions {
+        FitOptions {
+            seed: self.seed,
+            max_iterations: self.max_iterations,
+            target_error: self.target_error,
+            max_constraints: self.max_constraints,
+            ..FitOptions::default()
+        }
+    }
+}
+
+/// Arguments of `implicitize fit`.
+#[derive(Debug, Args)]
+pub struct FitCommand {
+    /// The mesh (OBJ, PLY, STL or OFF).
+    pub mesh: PathBuf,
+    /// The model file to write (JSON).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write the fit report (JSON: the paper's Table 1 and 2 columns, per iteration too).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Also write the polygonized implicit surface (OBJ, PLY or STL).
+    #[arg(long)]
+    pub mesh_out: Option<PathBuf>,
+    #[command(flatten)]
+    pub fit: FitArgs,
+}
+
+/// Where a fit's results go.
+struct Outputs<'a> {
+    model: &'a Path,
+    report: Option<&'a Path>,
+    mesh: Option<&'a Path>,
+}
+
+/// Runs `implicitize fit`.
+pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
+    let mesh = read_mesh(&args.mesh, progress)?;
+    let mesh_bytes = std::fs::metadata(&args.mesh).ok().map(|m| m.len());
+    let name = args.mesh.file_stem().map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
+    let outputs =
+        Outputs { model: &args.output, report: args.report.as_deref(), mesh: args.mesh_out.as_deref() };
+    fit_and_write(&mesh, &args.mesh, &name, mesh_bytes, &args.fit, &outputs, progress)
+}
+
+/// The built-in default model, compiled into the binary (see data/README.md).
+const TRICERATOPS_OBJ: &[u8] = include_bytes!("../../data/triceratops.obj");
+
+/// Arguments of `implicitize demo`.
+#[derive(Debug, Args)]
+pub struct DemoCommand {
+    /// The folder to write into.
+    #[arg(short, long, default_value = "implicitize-demo")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub fit: FitArgs,
+}
+
+/// Runs `implicitize demo`: the fit on the built-in triceratops, everything written to a folder.
+pub fn demo(args: &DemoCommand, progress: Progress) -> anyhow::Result<()> {
+    let source = Path::new("triceratops.obj (built in)");
+    let (mesh, _) = mesh::read_bytes(TRICERATOPS_OBJ, mesh::Format::Obj, source)?;
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("{}: cannot create the folder", args.output.display()))?;
+    let model = args.output.join("model.json");
+    let report = args.output.join("report.json");
+    let surface = args.output.join("surface.ply");
+    let outputs = Outputs { model: &model, report: Some(&report), mesh: Some(&surface) };
+    let mesh_bytes = Some(TRICERATOPS_OBJ.len() as u64);
+    fit_and_write(&mesh, source, "triceratops", mesh_bytes, &args.fit, &outputs, progress)?;
+    progress.line(format!(
+        "wrote {}, {} and {}",
+        model.display(),
+        report.display(),
+        surface.display()
+    ));
+    Ok(())
+}
+
+/// Voxelizes, fits, and writes the model, the report and the surface.
+fn fit_and_write(
+    mesh: &Mesh,
+    source: &Path,
+    name: &str,
+    mesh_bytes: Option<u64>,
+    args: &FitArgs,
+    outputs: &Outputs,
+    progress: Progress,
+) -> anyhow::Result<()> {
+    let options = args.options();
+    let grid = args.grid.grid_around(mesh, source)?;
+    progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
+    let density = voxelize::voxelize(mesh, &grid, &voxelize::VoxelizeOptions::default())?;
+    let goal = Goal::from_density(density, &options.regularity);
+    let fitted = match args.method {
+        Method::Iterative => fit::fit(&goal, &options, |line| progress.line(line.line()))?,
+        Method::Naive => fit::naive::fit(mesh, &goal, &options)?,
+    };
+    let mut report = fitted.report;
+    report.mesh_bytes = mesh_bytes;
+    let bounds = mesh.bounds().context("the mesh has no triangles")?;
+    let mut model = Model::from_implicit(fitted.implicit, bounds, Some(grid));
+    model.save(outputs.model)?;
+    report.model_bytes = std::fs::metadata(outputs.model).ok().map(|m| m.len());
+    model.set_report(serde_json::to_value(&report)?);
+    model.save(outputs.model)?;
+    if let Some(path) = outputs.report {
+        write_report(path, &report)?;
+    }
+    if let Some(path) = outputs.mesh {
+        let surface = polygonize::polygonize_field(&model, &grid);
+        mesh::write(path, &surface)?;
+    }
+    progress.line(report.table(name));
+    Ok(())
+}
+
+fn write_report(path: &Path, report: &FitReport) -> anyhow::Result<()> {
+    let json = serde_json::to_string_pretty(report)?;
+    std::fs::write(path, json + "\n").with_context(|| format!("{}: cannot write the report", path.display()))
+}

@@ -1,0 +1,38 @@
+//! `implicitize mesh`: the zero set of a model as a triangle mesh.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use implicitize::model::Model;
+use implicitize::{Grid, Resolution, mesh, polygonize};
+
+use super::common::Progress;
+
+/// Arguments of `implicitize mesh`.
+#[derive(Debug, Args)]
+pub struct MeshCommand {
+    /// The model file (JSON, from `fit`, `solve` or `csg`).
+    pub model: PathBuf,
+    /// The mesh to write: .obj, .ply (binary) or .stl (binary).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Voxels along the longest axis of the model's bounds, margins included.
+    #[arg(long, default_value_t = 200)]
+    pub resolution: usize,
+}
+
+/// Polygonizes the model over its bounds and writes the mesh.
+pub fn run(args: &MeshCommand, progress: Progress) -> anyhow::Result<()> {
+    let model = Model::load(&args.model)?;
+    let grid = Grid::around(&model.bounds(), Resolution::LongestAxis(args.resolution))?;
+    progress.stage(format!("polygonizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
+    let surface = polygonize::polygonize_field(&model, &grid);
+    mesh::write(&args.output, &surface)?;
+    progress.line(format!(
+        "wrote {}: {} triangles, {} vertices",
+        args.output.display(),
+        surface.triangles.len(),
+        surface.vertices.len()
+    ));
+    Ok(())
+}

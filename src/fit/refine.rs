@@ -1,0 +1,97 @@
+//! Refinement (paper 5.3): new constraints where the current surface is furthest from the goal.
+//!
+//! Candidates come from both boundaries. A goal boundary voxel y, whose error is sd_curr(y),
+//! gives a boundary constraint on the goal's surface at sub-voxel precision from the densities.
+//! A current boundary voxel x, whose error is sd_goal(x), gives a soft interior or exterior
+//! constraint at x that takes the goal's signed distance there as its value.
+//!
+//! The candidates are taken greatest error first and pruned by the paper's four rules:
+//! 1. within `2 sd(x)` of a voxel x where a constraint was added this iteration (so the circles
+//!    of radius sd(x) around the added constraints are disjoint);
+//! 2. less than `min_constraint_spacing` (two voxels) from any existing constraint;
+//! 3. an error less than `error_fraction` (half) of E, too fine an adjustment for now;
+//! 4. a weighted error less than `min_weighted_error` (0.125), most likely unnoticeable.
+
+use super::goal::Goal;
+use super::{FitConstraint, FitOptions};
+use crate::distance;
+use crate::geometry::DVec3;
+use crate::metrics::BoundaryErrors;
+
+/// A candidate constraint with the errors that rank and prune it.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    constraint: FitConstraint,
+    weighted_error: f32,
+}
+
+/// The constraints to add this iteration, greatest error first.
+///
+/// `goal_side` holds the goal's boundary voxels with sd_curr at each, `current_side` the current
+/// surface's boundary voxels with sd_goal at each; `max_error` is E; `existing` are the
+/// constraints of the current model.
+pub fn new_constraints(
+    goal: &Goal,
+    goal_side: &BoundaryErrors,
+    current_side: &BoundaryErrors,
+    max_error: f32,
+    existing: &[FitConstraint],
+    options: &FitOptions,
+) -> Vec<FitConstraint> {
+    let min_error = max_error * options.error_fraction;
+    let mut candidates = Vec::new();
+    for i in 0..goal_side.voxels.len() {
+        let (error, weighted) = (goal_side.error(i), goal_side.weighted_error(i));
+        if error >= min_error && weighted >= options.min_weighted_error {
+            let position = distance::surface_point(&goal.density, goal_side.voxels[i]);
+            let constraint = FitConstraint { position, value: 0.0, error };
+            candidates.push(Candidate { constraint, weighted_error: weighted });
+        }
+    }
+    for i in 0..current_side.voxels.len() {
+        let (error, weighted) = (current_side.error(i), current_side.weighted_error(i));
+        if error >= min_error && weighted >= options.min_weighted_error {
+            let position = voxel_centre(current_side.voxels[i]);
+            let value = f64::from(current_side.other_sd[i]);
+            let constraint = FitConstraint { position, value, error };
+            candidates.push(Candidate { constraint, weighted_error: weighted });
+        }
+    }
+    candidates.sort_by(|a, b| {
+        b.constraint
+            .error
+            .total_cmp(&a.constraint.error)
+            .then(b.weighted_error.total_cmp(&a.weighted_error))
+    });
+    select(candidates, existing, options)
+}
+
+/// Applies the two distance rules, greatest error first.
+fn select(
+    candidates: Vec<Candidate>,
+    existing: &[FitConstraint],
+    options: &FitOptions,
+) -> Vec<FitConstraint> {
+    let mut added: Vec<FitConstraint> = Vec::new();
+    for candidate in candidates {
+        let c = candidate.constraint;
+        let near_added = added.iter().any(|a| {
+            a.position.distance(c.position) < options.added_spacing_factor * f64::from(a.error)
+        });
+        if near_added {
+            continue;
+        }
+        let near_existing = existing
+            .iter()
+            .any(|e| e.position.distance(c.position) < options.min_constraint_spacing);
+        if !near_existing {
+            added.push(c);
+        }
+    }
+    added
+}
+
+/// The centre of a voxel in continuous grid coordinates.
+fn voxel_centre(v: [usize; 3]) -> DVec3 {
+    DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)
+}

@@ -1,0 +1,173 @@
+//! The fit report: the columns of the paper's Table 1 (constraints and error) and Table 2
+//! (running time), overall and for each iteration.
+
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use crate::metrics::ErrorMetrics;
+
+/// Constraint counts by kind, as in the paper's Table 1.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct ConstraintCounts {
+    /// Boundary (zero) constraints.
+    pub boundary: usize,
+    /// Interior (positive) constraints.
+    pub interior: usize,
+    /// Exterior (negative) constraints.
+    pub exterior: usize,
+}
+
+impl ConstraintCounts {
+    /// Counts constraints by the sign of their values.
+    pub fn of_values(values: impl IntoIterator<Item = f64>) -> Self {
+        let mut counts = ConstraintCounts::default();
+        for v in values {
+            match v.partial_cmp(&0.0) {
+                Some(std::cmp::Ordering::Greater) => counts.interior += 1,
+                Some(std::cmp::Ordering::Less) => counts.exterior += 1,
+                _ => counts.boundary += 1,
+            }
+        }
+        counts
+    }
+
+    /// All constraints.
+    pub fn total(&self) -> usize {
+        self.boundary + self.interior + self.exterior
+    }
+}
+
+/// Seconds spent in each stage, as in the paper's Table 2.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Timings {
+    /// Voxelization and the goal's and current surfaces' signed distances.
+    pub signed_distance: f64,
+    /// Evaluating the implicit function over the volume (5.2).
+    pub implicit_evaluation: f64,
+    /// Everything else: solving, radii of regularity, candidates and pruning.
+    pub misc: f64,
+    /// Wall-clock time of the whole fit.
+    pub total: f64,
+}
+
+/// The figures of one iteration.
+#[derive(Debug, Clone, Serialize)]
+pub struct IterationReport {
+    /// 1 for the model of the initial constraints.
+    pub iteration: usize,
+    /// The model's constraints.
+    pub constraints: ConstraintCounts,
+    /// E, in voxels.
+    pub max_error_voxels: f32,
+    /// Ew.
+    pub weighted_error: f32,
+    /// RMS error, in voxels.
+    pub rms_error_voxels: f32,
+    /// Time spent in this iteration.
+    pub timings_s: Timings,
+}
+
+impl IterationReport {
+    /// The report of one iteration.
+    pub fn new(iteration: usize, constraints: ConstraintCounts, metrics: ErrorMetrics, timings_s: Timings) -> Self {
+        IterationReport {
+            iteration,
+            constraints,
+            max_error_voxels: metrics.max_error,
+            weighted_error: metrics.weighted_error,
+            rms_error_voxels: metrics.rms_error,
+            timings_s,
+        }
+    }
+
+    /// One line for the terminal: iteration, constraints, E, Ew, RMS, time.
+    pub fn line(&self) -> String {
+        format!(
+            "iteration {:>3}  constraints {:>5} ({} zero, {} in, {} out)  E {:>6.2}  Ew {:>6.3}  RMS {:>6.3}  {:>6.2} s",
+            self.iteration,
+            self.constraints.total(),
+            self.constraints.boundary,
+            self.constraints.interior,
+            self.constraints.exterior,
+            self.max_error_voxels,
+            self.weighted_error,
+            self.rms_error_voxels,
+            self.timings_s.total,
+        )
+    }
+}
+
+/// The whole fit's report (written as JSON by `implicitize fit --report`).
+#[derive(Debug, Clone, Serialize)]
+pub struct FitReport {
+    /// How the constraints were made: "iterative" (paper 5) or "naive" (paper 3.2).
+    pub method: String,
+    /// Iterations run, the initial model counting as the first.
+    pub iterations: usize,
+    /// The iteration whose model was kept (the best by E, then by RMS).
+    pub best_iteration: usize,
+    /// Why the loop stopped.
+    pub termination: String,
+    /// The kept model's constraints.
+    pub constraints: ConstraintCounts,
+    /// The kept model's E, in voxels.
+    pub max_error_voxels: f32,
+    /// The kept model's E, in mesh units.
+    pub max_error: f64,
+    /// The kept model's Ew.
+    pub weighted_error: f32,
+    /// The kept model's RMS error, in voxels.
+    pub rms_error_voxels: f32,
+    /// Time spent, summed over the whole fit.
+    pub timings_s: Timings,
+    /// The grid's size.
+    pub dims: [usize; 3],
+    /// The centre of voxel (0, 0, 0), mesh units.
+    pub origin: [f64; 3],
+    /// The voxel's side, mesh units.
+    pub voxel_size: f64,
+    /// The figures of every iteration.
+    pub per_iteration: Vec<IterationReport>,
+    /// The size of the model file, in bytes, once written.
+    pub model_bytes: Option<u64>,
+    /// The size of the input mesh file, in bytes, when it came from a file.
+    pub mesh_bytes: Option<u64>,
+}
+
+impl FitReport {
+    /// The paper's Table 1 and Table 2 rows for this fit, for the terminal.
+    pub fn table(&self, name: &str) -> String {
+        let [nx, ny, nz] = self.dims;
+        let volume = if nz == 1 { format!("{nx} x {ny}") } else { format!("{nx} x {ny} x {nz}") };
+        let t = &self.timings_s;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "{:<14} {:<16} {:>10} {:>6} {:>9} {:>9} {:>11}",
+            "model", "volume", "iterations", "zero", "interior", "exterior", "max error"
+        );
+        let _ = writeln!(
+            s,
+            "{:<14} {:<16} {:>10} {:>6} {:>9} {:>9} {:>11.2}",
+            name,
+            volume,
+            self.iterations,
+            self.constraints.boundary,
+            self.constraints.interior,
+            self.constraints.exterior,
+            self.max_error_voxels
+        );
+        let _ = writeln!(
+            s,
+            "{:<14} {:<16} {:>15} {:>20} {:>10} {:>9}",
+            "model", "volume", "signed dist (s)", "implicit eval (s)", "misc (s)", "total (s)"
+        );
+        let _ = writeln!(
+            s,
+            "{:<14} {:<16} {:>15.2} {:>20.2} {:>10.2} {:>9.2}",
+            name, volume, t.signed_distance, t.implicit_evaluation, t.misc, t.total
+        );
+        s
+    }
+}

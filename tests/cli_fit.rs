@@ -1,0 +1,84 @@
+//! `implicitize fit` and `implicitize demo` through the command line, on the vendored triceratops.
+
+use std::path::Path;
+use std::process::Command;
+
+fn implicitize() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_implicitize"))
+}
+
+fn triceratops() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/triceratops.obj"))
+}
+
+#[test]
+fn fit_writes_the_model_the_report_and_the_surface() {
+    let dir = tempfile::tempdir().unwrap();
+    let (model, report, surface) =
+        (dir.path().join("t.json"), dir.path().join("r.json"), dir.path().join("t.ply"));
+    let out = implicitize()
+        .arg("fit")
+        .arg(triceratops())
+        .args(["--resolution", "64", "--quiet", "-o"])
+        .arg(&model)
+        .arg("--report")
+        .arg(&report)
+        .arg("--mesh-out")
+        .arg(&surface)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    for key in ["iterations", "constraints", "max_error_voxels", "weighted_error", "rms_error_voxels", "timings_s", "dims", "origin", "voxel_size", "per_iteration", "model_bytes", "mesh_bytes"] {
+        assert!(report.get(key).is_some(), "the report has no {key}");
+    }
+    for key in ["boundary", "interior", "exterior"] {
+        assert!(report["constraints"][key].as_u64().unwrap() > 0 || key != "boundary");
+    }
+    assert_eq!(report["per_iteration"].as_array().unwrap().len() as u64, report["iterations"].as_u64().unwrap());
+    assert!(report["max_error_voxels"].as_f64().unwrap() <= 3.0);
+    let model_bytes = report["model_bytes"].as_u64().unwrap();
+    assert!(model_bytes < report["mesh_bytes"].as_u64().unwrap(), "the model is smaller than the mesh");
+    let (mesh, _) = implicitize::mesh::read(&surface).unwrap();
+    assert!(mesh.triangles.len() > 1000);
+    implicitize::model::Model::load(&model).unwrap();
+}
+
+#[test]
+fn fit_of_a_missing_file_fails_with_one_line_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = implicitize()
+        .args(["fit", "no-such-mesh.obj", "-o"])
+        .arg(dir.path().join("m.json"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("no-such-mesh.obj"), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+}
+
+#[test]
+fn fit_of_a_flat_mesh_fails_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let flat = dir.path().join("flat.obj");
+    std::fs::write(&flat, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n").unwrap();
+    let out = implicitize().arg("fit").arg(&flat).arg("-o").arg(dir.path().join("m.json")).output().unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("flat.obj"), "{stderr}");
+}
+
+#[test]
+fn demo_writes_into_its_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = implicitize()
+        .args(["demo", "--resolution", "48", "--max-iterations", "3", "--quiet", "-o"])
+        .arg(dir.path().join("demo"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for file in ["model.json", "report.json", "surface.ply"] {
+        assert!(dir.path().join("demo").join(file).is_file(), "no {file}");
+    }
+}

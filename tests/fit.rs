@@ -1,0 +1,96 @@
+//! The iterative fit (paper 5) end to end on shapes with known answers.
+
+mod common;
+
+use implicitize::fit::{self, FitOptions, Goal};
+use implicitize::model::Model;
+use implicitize::{DVec3, Grid, Mesh, Resolution, polygonize, voxelize};
+
+/// Voxelizes `mesh` at `resolution` and fits it with `options`.
+fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> (Grid, fit::Fit) {
+    let grid = Grid::around(&mesh.bounds().unwrap(), Resolution::LongestAxis(resolution)).unwrap();
+    let density = voxelize::voxelize(mesh, &grid, &Default::default()).unwrap();
+    let goal = Goal::from_density(density, &options.regularity);
+    let fitted = fit::fit(&goal, options, |_| {}).unwrap();
+    (grid, fitted)
+}
+
+#[test]
+fn a_torus_is_fitted_within_two_voxels() {
+    let torus = common::torus(2.0, 0.7, 96, 48);
+    let (_, fitted) = fit_mesh(&torus, 64, &FitOptions::default());
+    let report = &fitted.report;
+    assert!(report.max_error_voxels <= 2.0, "E = {} voxels", report.max_error_voxels);
+    assert!(report.constraints.total() <= 400, "{} constraints", report.constraints.total());
+    assert_eq!(report.per_iteration.len(), report.iterations);
+    let best = &report.per_iteration[report.best_iteration - 1];
+    assert_eq!(best.max_error_voxels, report.max_error_voxels, "the kept model is the best one");
+    assert!(report.per_iteration.iter().all(|i| i.max_error_voxels >= report.max_error_voxels));
+}
+
+#[test]
+fn the_polygonized_fit_is_as_close_to_the_mesh_as_the_report_says() {
+    let torus = common::torus(2.0, 0.7, 96, 48);
+    let (grid, fitted) = fit_mesh(&torus, 64, &FitOptions::default());
+    let model = Model::from_implicit(fitted.implicit, torus.bounds().unwrap(), Some(grid));
+    let surface = polygonize::polygonize_field(&model, &grid);
+    assert!(!surface.triangles.is_empty());
+    let bound = (f64::from(fitted.report.max_error_voxels) + 1.0) * grid.voxel_size;
+    let there = common::max_vertex_distance(&surface, &torus);
+    let back = common::max_vertex_distance(&torus, &surface);
+    assert!(there <= bound, "implicit to mesh {there} > {bound}");
+    assert!(back <= bound, "mesh to implicit {back} > {bound}");
+}
+
+#[test]
+fn the_same_seed_gives_the_same_model_and_another_seed_another() {
+    let torus = common::torus(2.0, 0.7, 64, 32);
+    let options = FitOptions { max_iterations: 4, ..FitOptions::default() };
+    let (_, a) = fit_mesh(&torus, 48, &options);
+    let (_, b) = fit_mesh(&torus, 48, &options);
+    assert_eq!(format!("{:?}", a.implicit), format!("{:?}", b.implicit));
+    let (_, c) = fit_mesh(&torus, 48, &FitOptions { seed: 7, ..options });
+    assert_ne!(format!("{:?}", a.implicit), format!("{:?}", c.implicit));
+}
+
+#[test]
+fn a_scaled_and_moved_mesh_gives_the_same_fit_in_voxels() {
+    let torus = common::torus(2.0, 0.7, 64, 32);
+    let far = Mesh {
+        vertices: torus.vertices.iter().map(|&v| v * 1000.0 + DVec3::new(1e5, -2e5, 3e5)).collect(),
+        triangles: torus.triangles.clone(),
+    };
+    let options = FitOptions { max_iterations: 6, ..FitOptions::default() };
+    let (_, near_fit) = fit_mesh(&torus, 48, &options);
+    let (_, far_fit) = fit_mesh(&far, 48, &options);
+    let (a, b) = (&near_fit.report, &far_fit.report);
+    assert_eq!(a.constraints, b.constraints);
+    assert_eq!(a.iterations, b.iterations);
+    assert!((a.max_error_voxels - b.max_error_voxels).abs() < 1e-3);
+    assert!((a.rms_error_voxels - b.rms_error_voxels).abs() < 1e-3);
+}
+
+#[test]
+fn two_separate_spheres_are_both_found() {
+    let mut spheres = common::sphere(DVec3::ZERO, 1.0, 24, 48);
+    let other = common::sphere(DVec3::new(3.0, 0.0, 0.0), 0.8, 24, 48);
+    let offset = spheres.vertices.len() as u32;
+    spheres.vertices.extend(other.vertices);
+    spheres.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + offset)));
+    let (_, fitted) = fit_mesh(&spheres, 64, &FitOptions::default());
+    assert!(fitted.report.max_error_voxels <= 2.0, "E = {}", fitted.report.max_error_voxels);
+}
+
+#[test]
+fn the_naive_method_runs_and_is_measured_the_same_way() {
+    let torus = common::torus(2.0, 0.7, 64, 32);
+    let options = FitOptions::default();
+    let grid = Grid::around(&torus.bounds().unwrap(), Resolution::LongestAxis(48)).unwrap();
+    let density = voxelize::voxelize(&torus, &grid, &Default::default()).unwrap();
+    let goal = Goal::from_density(density, &options.regularity);
+    let naive = fit::naive::fit(&torus, &goal, &options).unwrap();
+    assert_eq!(naive.report.iterations, 1);
+    assert!(naive.report.constraints.boundary > 0);
+    assert_eq!(naive.report.constraints.boundary, naive.report.constraints.exterior);
+    assert!(naive.report.max_error_voxels.is_finite());
+}
