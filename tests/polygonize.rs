@@ -191,9 +191,7 @@ fn check_closed_shape(
     let v = signed_volume(mesh);
     assert!(v > 0.0, "signed volume {v} is not positive: normals point inward");
     assert!((v / volume - 1.0).abs() < volume_tolerance, "volume {v} vs analytic {volume}");
-    let e = max_error(mesh, g.voxel_size, distance);
-    eprintln!("DBG error {e} volume ratio {} triangles {}", v / volume, mesh.triangles.len());
-    e
+    max_error(mesh, g.voxel_size, distance)
 }
 
 fn sphere_in(g: &Grid) -> Sphere {
@@ -256,8 +254,10 @@ fn a_signed_distance_volume_polygonizes_at_any_iso_level() {
 #[test]
 fn random_volumes_with_outside_borders_are_watertight() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
-    for round in 0..12 {
-        let dims = [rng.random_range(2..20), rng.random_range(2..20), rng.random_range(2..20)];
+    for round in 0..16 {
+        // Rows of k span several 64-bit words in the later rounds.
+        let long = if round < 8 { 20 } else { 140 };
+        let dims = [rng.random_range(2..16), rng.random_range(2..16), rng.random_range(2..long)];
         let g = grid(dims);
         let mut volume = Volume::filled(g, -1.0f32);
         // Coarse values (some exactly at the level) in odd rounds, continuous ones in even.
