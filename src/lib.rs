@@ -10,7 +10,7 @@
 //! |---|---|---|
 //! | read a mesh (OBJ, PLY, STL, OFF) | [`mesh`] | 3.2 |
 //! | place a voxel grid | [`grid`] | 4 |
-//! | extract a surface as a mesh | [`polygonize`] | 5.2, figures |
+//! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate

@@ -70,7 +70,11 @@ fn inside<T: Sample>(value: T, iso: T) -> bool {
 pub(super) fn crossing<T: Sample>(a: T, b: T, iso: T) -> f64 {
     let (a, b, iso): (f64, f64, f64) = (a.into(), b.into(), iso.into());
     let t = (iso - a) / (b - a);
-    if t.is_nan() { 0.5 } else { t.clamp(END_MARGIN, 1.0 - END_MARGIN) }
+    if t.is_nan() {
+        0.5
+    } else {
+        t.clamp(END_MARGIN, 1.0 - END_MARGIN)
+    }
 }
 
 /// Extracts the iso-surface of `volume` at `iso` (inside is `>= iso`).
@@ -86,7 +90,11 @@ pub(super) fn extract<T: Sample>(volume: &Volume<T>, iso: T) -> Surface {
         return Surface::default();
     }
     let signs = Signs::of(volume, iso);
-    let slab = Slabber { volume, iso, signs: &signs };
+    let slab = Slabber {
+        volume,
+        iso,
+        signs: &signs,
+    };
     let count = (rayon::current_num_threads() * 4).clamp(1, nx - 1);
     let slabs: Vec<SlabSurface> = (0..count)
         .into_par_iter()
@@ -109,15 +117,17 @@ impl Signs {
         let nz = volume.grid.dims[2];
         let words = nz.div_ceil(64);
         let mut bits = vec![0u64; volume.data.len() / nz * words];
-        bits.par_chunks_mut(words).zip(volume.data.par_chunks(nz)).for_each(|(row_bits, row)| {
-            for (word, values) in row_bits.iter_mut().zip(row.chunks(64)) {
-                let mut w = 0u64;
-                for (b, &v) in values.iter().enumerate() {
-                    w |= (inside(v, iso) as u64) << b;
+        bits.par_chunks_mut(words)
+            .zip(volume.data.par_chunks(nz))
+            .for_each(|(row_bits, row)| {
+                for (word, values) in row_bits.iter_mut().zip(row.chunks(64)) {
+                    let mut w = 0u64;
+                    for (b, &v) in values.iter().enumerate() {
+                        w |= (inside(v, iso) as u64) << b;
+                    }
+                    *word = w;
                 }
-                *word = w;
-            }
-        });
+            });
         Signs { words, bits }
     }
 
@@ -227,7 +237,11 @@ impl<T: Sample> Slabber<'_, T> {
     fn march(&self, i0: usize, i1: usize) -> SlabSurface {
         let [nx, ny, nz] = self.grid().dims;
         let plane = ny * nz;
-        let mut out = SlabSurface { vertices: Vec::new(), triangles: Vec::new(), first_layer: Vec::new() };
+        let mut out = SlabSurface {
+            vertices: Vec::new(),
+            triangles: Vec::new(),
+            first_layer: Vec::new(),
+        };
         let mut layer = vec![0u32; 3 * plane];
         let mut next = vec![0u32; 3 * plane];
         let mut across = vec![0u32; 4 * plane];
@@ -239,18 +253,31 @@ impl<T: Sample> Slabber<'_, T> {
             if next_is_ours {
                 self.make_vertices(i + 1, &IN_PLANE, &mut next, &mut out.vertices);
             }
-            let maps = [&layer[..], &across[..], if next_is_ours { &next[..] } else { &[] }];
+            let maps = [
+                &layer[..],
+                &across[..],
+                if next_is_ours { &next[..] } else { &[] },
+            ];
             self.march_layer(i, maps, &mut out.triangles);
             std::mem::swap(&mut layer, &mut next);
         }
-        assert!(out.vertices.len() < EXTERNAL as usize, "too many surface vertices for u32 indices");
+        assert!(
+            out.vertices.len() < EXTERNAL as usize,
+            "too many surface vertices for u32 indices"
+        );
         out
     }
 
     /// Adds the vertex on the edge from voxel `(i, j, k)` along `direction`, which the surface
     /// crosses, and records its index in `slot`.
     #[inline(always)]
-    fn edge_vertex(&self, [i, j, k]: [usize; 3], direction: u8, slot: &mut u32, vertices: &mut Vec<EdgeVertex>) {
+    fn edge_vertex(
+        &self,
+        [i, j, k]: [usize; 3],
+        direction: u8,
+        slot: &mut u32,
+        vertices: &mut Vec<EdgeVertex>,
+    ) {
         let d = |bit: u8| (direction >> bit & 1) as usize;
         let a = self.value(i, j, k);
         let b = self.value(i + d(0), j + d(1), k + d(2));
@@ -266,22 +293,39 @@ impl<T: Sample> Slabber<'_, T> {
 
     /// Makes the vertices on the edges from voxels of layer `i` along `directions` (the
     /// in-plane ones, or the ones to layer `i + 1`), recording them in `map`.
-    fn make_vertices(&self, i: usize, directions: &[(u8, usize)], map: &mut [u32], vertices: &mut Vec<EdgeVertex>) {
+    fn make_vertices(
+        &self,
+        i: usize,
+        directions: &[(u8, usize)],
+        map: &mut [u32],
+        vertices: &mut Vec<EdgeVertex>,
+    ) {
         let [_, ny, nz] = self.grid().dims;
         let words = self.signs.words;
         let slots = directions.len();
         for j in 0..ny {
             let here = self.signs.row(ny, i, j);
             for &(direction, slot) in directions {
-                let (dx, dy, dz) = ((direction & 1) as usize, (direction >> 1 & 1) as usize, direction >> 2 & 1 == 1);
+                let (dx, dy, dz) = (
+                    (direction & 1) as usize,
+                    (direction >> 1 & 1) as usize,
+                    direction >> 2 & 1 == 1,
+                );
                 if j + dy == ny {
                     continue;
                 }
                 let there = self.signs.row(ny, i + dx, j + dy);
                 let valid = if dz { nz - 1 } else { nz };
-                let crossing = |w: usize| (here[w] ^ if dz { shifted(there, w) } else { there[w] }) & below(valid, w);
+                let crossing = |w: usize| {
+                    (here[w] ^ if dz { shifted(there, w) } else { there[w] }) & below(valid, w)
+                };
                 for_each_bit(words, crossing, |k| {
-                    self.edge_vertex([i, j, k], direction, &mut map[(j * nz + k) * slots + slot], vertices);
+                    self.edge_vertex(
+                        [i, j, k],
+                        direction,
+                        &mut map[(j * nz + k) * slots + slot],
+                        vertices,
+                    );
                 });
             }
         }
@@ -297,23 +341,34 @@ impl<T: Sample> Slabber<'_, T> {
         let words = self.signs.words;
         for j in 0..ny - 1 {
             // The four rows of corners, in corner-bit order (x is bit 0, y bit 1).
-            let rows: [&[u64]; 4] = std::array::from_fn(|c| self.signs.row(ny, i + (c & 1), j + (c >> 1)));
+            let rows: [&[u64]; 4] =
+                std::array::from_fn(|c| self.signs.row(ny, i + (c & 1), j + (c >> 1)));
             let mixed = |w: usize| {
                 let any = rows[0][w] | rows[1][w] | rows[2][w] | rows[3][w];
                 let all = rows[0][w] & rows[1][w] & rows[2][w] & rows[3][w];
-                let any_next = shifted(rows[0], w) | shifted(rows[1], w) | shifted(rows[2], w) | shifted(rows[3], w);
-                let all_next = shifted(rows[0], w) & shifted(rows[1], w) & shifted(rows[2], w) & shifted(rows[3], w);
+                let any_next = shifted(rows[0], w)
+                    | shifted(rows[1], w)
+                    | shifted(rows[2], w)
+                    | shifted(rows[3], w);
+                let all_next = shifted(rows[0], w)
+                    & shifted(rows[1], w)
+                    & shifted(rows[2], w)
+                    & shifted(rows[3], w);
                 (any | any_next) & !(all & all_next) & below(nz - 1, w)
             };
             for_each_bit(words, mixed, |k| {
-                let case = (0..4).fold(0u8, |case, c| case | bit(rows[c], k) << c | bit(rows[c], k + 1) << (c + 4));
+                let case = (0..4).fold(0u8, |case, c| {
+                    case | bit(rows[c], k) << c | bit(rows[c], k + 1) << (c + 4)
+                });
                 let lookup = |e: EdgeId| -> u32 {
                     let s = slots[e as usize];
                     let cell = (j + s.dj) * nz + k + s.dk;
                     match s.map {
                         MapKind::Layer => maps[0][cell * 3 + s.slot],
                         MapKind::Across => maps[1][cell * 4 + s.slot],
-                        MapKind::NextLayer if maps[2].is_empty() => EXTERNAL | (cell * 3 + s.slot) as u32,
+                        MapKind::NextLayer if maps[2].is_empty() => {
+                            EXTERNAL | (cell * 3 + s.slot) as u32
+                        }
                         MapKind::NextLayer => maps[2][cell * 3 + s.slot],
                     }
                 };
@@ -373,27 +428,44 @@ fn stitch(slabs: Vec<SlabSurface>) -> Surface {
         nv += s.vertices.len();
         nt += s.triangles.len();
     }
-    assert!(nv <= u32::MAX as usize, "too many surface vertices for u32 indices");
+    assert!(
+        nv <= u32::MAX as usize,
+        "too many surface vertices for u32 indices"
+    );
     let mut triangles = vec![[0u32; 3]; nt];
-    let mut vertices = vec![EdgeVertex { position: DVec3::ZERO, base: 0, direction: 0 }; nv];
+    let mut vertices = vec![
+        EdgeVertex {
+            position: DVec3::ZERO,
+            base: 0,
+            direction: 0
+        };
+        nv
+    ];
     let triangle_parts = split_by(&mut triangles, slabs.iter().map(|s| s.triangles.len()));
     let vertex_parts = split_by(&mut vertices, slabs.iter().map(|s| s.vertices.len()));
-    triangle_parts.into_par_iter().zip(vertex_parts).enumerate().for_each(|(n, (triangles, vertices))| {
-        let own = vertex_start[n] as u32;
-        let resolve = |v: u32| {
-            if v & EXTERNAL == 0 {
-                own + v
-            } else {
-                let next = &slabs[n + 1];
-                vertex_start[n + 1] as u32 + next.first_layer[(v & !EXTERNAL) as usize]
+    triangle_parts
+        .into_par_iter()
+        .zip(vertex_parts)
+        .enumerate()
+        .for_each(|(n, (triangles, vertices))| {
+            let own = vertex_start[n] as u32;
+            let resolve = |v: u32| {
+                if v & EXTERNAL == 0 {
+                    own + v
+                } else {
+                    let next = &slabs[n + 1];
+                    vertex_start[n + 1] as u32 + next.first_layer[(v & !EXTERNAL) as usize]
+                }
+            };
+            for (out, t) in triangles.iter_mut().zip(&slabs[n].triangles) {
+                *out = t.map(resolve);
             }
-        };
-        for (out, t) in triangles.iter_mut().zip(&slabs[n].triangles) {
-            *out = t.map(resolve);
-        }
-        vertices.copy_from_slice(&slabs[n].vertices);
-    });
-    Surface { vertices, triangles }
+            vertices.copy_from_slice(&slabs[n].vertices);
+        });
+    Surface {
+        vertices,
+        triangles,
+    }
 }
 
 /// Splits `items` into consecutive parts of the given lengths.
