@@ -18,6 +18,7 @@
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
 //! | extract a surface as a mesh | [`polygonize`] | 5.2, figures |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
+//! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate

@@ -18,8 +18,6 @@
 
 use rayon::prelude::*;
 
-use crate::distance;
-use crate::geometry::DVec3;
 use crate::grid::Volume;
 
 /// How the discrete radius of regularity is measured.
@@ -28,8 +26,6 @@ pub struct RegularityOptions {
     /// The walk stops once the distance travelled exceeds the distance to the boundary by this
     /// much, in voxels (the paper's two-voxel tolerance for discretization errors).
     pub tolerance: f64,
-    /// Step length of the walk along the gradient, in voxels.
-    pub step: f64,
     /// Radii are capped here, in voxels. The paper sets no cap; without one a broad flat region
     /// of the goal gets radii of tens of voxels and Ew ignores errors of several voxels there.
     pub max_radius: f64,
@@ -39,7 +35,7 @@ pub struct RegularityOptions {
 
 impl Default for RegularityOptions {
     fn default() -> Self {
-        RegularityOptions { tolerance: 2.0, step: 0.5, max_radius: 16.0, min_radius: 1.0 }
+        RegularityOptions { tolerance: 2.0, max_radius: 16.0, min_radius: 1.0 }
     }
 }
 
@@ -48,40 +44,84 @@ impl Default for RegularityOptions {
 /// distance from the walker to the boundary plus the tolerance; the distance travelled is the
 /// radius.
 ///
+/// The walk is discrete, as the paper's volumes are: each step goes to the one of the 26
+/// neighbouring voxels with the steepest rise of the signed distance (rise over step length)
+/// and adds that step's length (1, √2 or √3) to the distance travelled; it also stops at a
+/// local maximum of the signed distance (the middle of a thin part, or the centre of a ball).
+///
 /// The paper walks up the gradient only, into the solid, which measures thinness. We also walk
 /// down it, out into the empty space, which measures narrow gaps and concave creases (the
 /// "sharp indentations by the bunny's leg" the paper found hardest), and return the smaller of
 /// the two, which is the discrete analogue of the r-regularity definition: a circle of radius r
 /// tangent on either side. The result is clamped to `[min_radius, max_radius]`, in voxels.
 pub fn radius_of_regularity(sd: &Volume<f32>, voxel: [usize; 3], options: &RegularityOptions) -> f32 {
-    let start = DVec3::new(voxel[0] as f64, voxel[1] as f64, voxel[2] as f64);
-    let inward = walk(sd, start, 1.0, options);
-    let outward = if inward <= options.min_radius { inward } else { walk(sd, start, -1.0, options) };
+    let inward = walk(sd, voxel, 1.0, options);
+    let outward = if inward <= options.min_radius { inward } else { walk(sd, voxel, -1.0, options) };
     inward.min(outward).clamp(options.min_radius, options.max_radius) as f32
 }
 
-/// Walks from `start` along `direction` times the gradient of `sd` (1 uphill, -1 downhill) and
+/// Walks from `start` up `direction` times the signed distance (1 inward, -1 outward) and
 /// returns the distance travelled when the stopping rule fires, at most `max_radius`.
-fn walk(sd: &Volume<f32>, start: DVec3, direction: f64, options: &RegularityOptions) -> f64 {
-    let dims = sd.grid.dims;
-    let upper = DVec3::new(dims[0] as f64 - 1.0, dims[1] as f64 - 1.0, dims[2] as f64 - 1.0);
-    let mut p = start;
+fn walk(sd: &Volume<f32>, start: [usize; 3], direction: f32, options: &RegularityOptions) -> f64 {
+    let mut voxel = start;
     let mut travelled = 0.0;
     while travelled < options.max_radius {
-        let g = distance::gradient(sd, p) * direction;
-        let length = g.length();
-        if length < 1e-6 {
+        let Some((next, step)) = steepest_neighbour(sd, voxel, direction) else {
             break;
-        }
-        p = (p + g * (options.step / length)).clamp(DVec3::ZERO, upper);
-        travelled += options.step;
-        let to_boundary = f64::from(distance::sample(sd, p)).abs();
-        if travelled > to_boundary + options.tolerance {
+        };
+        voxel = next;
+        travelled += step;
+        if travelled > f64::from(sd.get(voxel).abs()) + options.tolerance {
             break;
         }
     }
     travelled.min(options.max_radius)
 }
+
+/// The neighbour of `voxel` (of 26) where `direction * sd` rises most steeply, with the step's
+/// length, or `None` at a local maximum.
+fn steepest_neighbour(sd: &Volume<f32>, voxel: [usize; 3], direction: f32) -> Option<([usize; 3], f64)> {
+    const LENGTHS: [f32; 4] = [0.0, 1.0, std::f32::consts::SQRT_2, 1.732_050_8];
+    let here = direction * *sd.get(voxel);
+    let dims = sd.grid.dims;
+    let mut best: Option<([usize; 3], usize)> = None;
+    let mut best_slope = 0.0f32;
+    for offset in NEIGHBOURS {
+        let mut next = [0usize; 3];
+        let mut inside_grid = true;
+        for a in 0..3 {
+            let c = voxel[a] as isize + offset[a];
+            inside_grid &= c >= 0 && (c as usize) < dims[a];
+            next[a] = c.max(0) as usize;
+        }
+        if !inside_grid {
+            continue;
+        }
+        let order = offset.iter().filter(|&&o| o != 0).count();
+        let slope = (direction * *sd.get(next) - here) / LENGTHS[order];
+        if slope > best_slope {
+            best_slope = slope;
+            best = Some((next, order));
+        }
+    }
+    best.map(|(next, order)| (next, f64::from(LENGTHS[order])))
+}
+
+/// The 26 offsets to a voxel's neighbours.
+const NEIGHBOURS: [[isize; 3]; 26] = {
+    let mut offsets = [[0isize; 3]; 26];
+    let mut n = 0;
+    let mut i = 0;
+    while i < 27 {
+        let o = [(i / 9) as isize - 1, ((i / 3) % 3) as isize - 1, (i % 3) as isize - 1];
+        if o[0] != 0 || o[1] != 0 || o[2] != 0 {
+            offsets[n] = o;
+            n += 1;
+        }
+        i += 1;
+    }
+    offsets
+};
 
 /// The radius of regularity at each of `voxels`, in parallel.
 pub fn radii_of_regularity(

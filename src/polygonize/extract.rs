@@ -52,7 +52,7 @@ pub(super) struct Surface {
 impl Surface {
     pub(super) fn into_mesh(self) -> Mesh {
         Mesh {
-            vertices: self.vertices.into_iter().map(|v| v.position).collect(),
+            vertices: self.vertices.par_iter().map(|v| v.position).collect(),
             triangles: self.triangles,
         }
     }
@@ -70,13 +70,12 @@ fn inside<T: Sample>(value: T, iso: T) -> bool {
 pub(super) fn crossing<T: Sample>(a: T, b: T, iso: T) -> f64 {
     let (a, b, iso): (f64, f64, f64) = (a.into(), b.into(), iso.into());
     let t = (iso - a) / (b - a);
-    if t.is_nan() { 0.5 } else { t.clamp(END_MARGIN, 1.0 - END_MARGIN) }
+    if t.is_nan() {
+        0.5
+    } else {
+        t.clamp(END_MARGIN, 1.0 - END_MARGIN)
+    }
 }
-
-/// Row classes: every value of a row of `k` outside, every value inside, or some of each.
-const ALL_OUTSIDE: u8 = 0;
-const ALL_INSIDE: u8 = 1;
-const MIXED: u8 = 2;
 
 /// Extracts the iso-surface of `volume` at `iso` (inside is `>= iso`).
 pub(super) fn extract<T: Sample>(volume: &Volume<T>, iso: T) -> Surface {
@@ -90,8 +89,12 @@ pub(super) fn extract<T: Sample>(volume: &Volume<T>, iso: T) -> Surface {
     if nx < 2 || ny < 2 || nz < 2 {
         return Surface::default();
     }
-    let rows: Vec<u8> = volume.data.par_chunks(nz).map(|row| classify(row, iso)).collect();
-    let slab = Slabber { volume, iso, rows: &rows };
+    let signs = Signs::of(volume, iso);
+    let slab = Slabber {
+        volume,
+        iso,
+        signs: &signs,
+    };
     let count = (rayon::current_num_threads() * 4).clamp(1, nx - 1);
     let slabs: Vec<SlabSurface> = (0..count)
         .into_par_iter()
@@ -100,19 +103,73 @@ pub(super) fn extract<T: Sample>(volume: &Volume<T>, iso: T) -> Surface {
     stitch(slabs)
 }
 
-fn classify<T: Sample>(row: &[T], iso: T) -> u8 {
-    let first = inside(row[0], iso);
-    if row.iter().all(|&v| inside(v, iso) == first) {
-        if first { ALL_INSIDE } else { ALL_OUTSIDE }
-    } else {
-        MIXED
+/// Which voxels are inside, one bit per voxel, each row of `k` in whole 64-bit words.
+///
+/// Crossing edges and cubes with mixed corners are found a word at a time from these bits, so
+/// the values themselves are read only where the surface is.
+struct Signs {
+    words: usize,
+    bits: Vec<u64>,
+}
+
+impl Signs {
+    fn of<T: Sample>(volume: &Volume<T>, iso: T) -> Signs {
+        let nz = volume.grid.dims[2];
+        let words = nz.div_ceil(64);
+        let mut bits = vec![0u64; volume.data.len() / nz * words];
+        bits.par_chunks_mut(words)
+            .zip(volume.data.par_chunks(nz))
+            .for_each(|(row_bits, row)| {
+                for (word, values) in row_bits.iter_mut().zip(row.chunks(64)) {
+                    let mut w = 0u64;
+                    for (b, &v) in values.iter().enumerate() {
+                        w |= (inside(v, iso) as u64) << b;
+                    }
+                    *word = w;
+                }
+            });
+        Signs { words, bits }
+    }
+
+    /// The bits of row `(i, j)`.
+    #[inline]
+    fn row(&self, ny: usize, i: usize, j: usize) -> &[u64] {
+        &self.bits[(i * ny + j) * self.words..][..self.words]
     }
 }
 
-/// Whether rows of these classes can hold no crossing between any of their values.
-#[inline]
-fn uniform(classes: &[u8]) -> bool {
-    classes[0] != MIXED && classes.iter().all(|&c| c == classes[0])
+/// Word `w` of a row's bits moved down by one voxel (bit `k` holds voxel `k + 1`).
+#[inline(always)]
+fn shifted(row: &[u64], w: usize) -> u64 {
+    row[w] >> 1 | row.get(w + 1).map_or(0, |next| next << 63)
+}
+
+/// The bits of word `w` that stand for voxels `k < n`.
+#[inline(always)]
+fn below(n: usize, w: usize) -> u64 {
+    match n.saturating_sub(w * 64) {
+        0 => 0,
+        m if m >= 64 => !0,
+        m => (1 << m) - 1,
+    }
+}
+
+/// Calls `f(k)` for every set bit `k` of `bits(w)` over the words of a row.
+#[inline(always)]
+fn for_each_bit(words: usize, bits: impl Fn(usize) -> u64, mut f: impl FnMut(usize)) {
+    for w in 0..words {
+        let mut x = bits(w);
+        while x != 0 {
+            f(w * 64 + x.trailing_zeros() as usize);
+            x &= x - 1;
+        }
+    }
+}
+
+/// The bit of voxel `k` in a row.
+#[inline(always)]
+fn bit(row: &[u64], k: usize) -> u8 {
+    (row[k / 64] >> (k % 64)) as u8 & 1
 }
 
 /// The surface of one slab, with vertex indices local to it.
@@ -127,7 +184,7 @@ struct SlabSurface {
 struct Slabber<'a, T> {
     volume: &'a Volume<T>,
     iso: T,
-    rows: &'a [u8],
+    signs: &'a Signs,
 }
 
 /// In-plane directions (y, z, yz) and their slots in a layer map.
@@ -176,51 +233,54 @@ impl<T: Sample> Slabber<'_, T> {
         self.volume.data[self.grid().index([i, j, k])]
     }
 
-    #[inline(always)]
-    fn row_class(&self, i: usize, j: usize) -> u8 {
-        self.rows[i * self.grid().dims[1] + j]
-    }
-
     /// Marches the cubes of layers `i0..i1` (and owns the vertices starting in them).
     fn march(&self, i0: usize, i1: usize) -> SlabSurface {
         let [nx, ny, nz] = self.grid().dims;
         let plane = ny * nz;
-        let mut out = SlabSurface { vertices: Vec::new(), triangles: Vec::new(), first_layer: Vec::new() };
+        let mut out = SlabSurface {
+            vertices: Vec::new(),
+            triangles: Vec::new(),
+            first_layer: Vec::new(),
+        };
         let mut layer = vec![0u32; 3 * plane];
         let mut next = vec![0u32; 3 * plane];
         let mut across = vec![0u32; 4 * plane];
-        self.layer_vertices(i0, &mut layer, &mut out.vertices);
+        self.make_vertices(i0, &IN_PLANE, &mut layer, &mut out.vertices);
         out.first_layer = layer.clone();
         for i in i0..i1.min(nx - 1) {
-            self.across_vertices(i, &mut across, &mut out.vertices);
+            self.make_vertices(i, &ACROSS, &mut across, &mut out.vertices);
             let next_is_ours = i + 1 < i1;
             if next_is_ours {
-                self.layer_vertices(i + 1, &mut next, &mut out.vertices);
+                self.make_vertices(i + 1, &IN_PLANE, &mut next, &mut out.vertices);
             }
-            let maps = [&layer[..], &across[..], if next_is_ours { &next[..] } else { &[] }];
+            let maps = [
+                &layer[..],
+                &across[..],
+                if next_is_ours { &next[..] } else { &[] },
+            ];
             self.march_layer(i, maps, &mut out.triangles);
             std::mem::swap(&mut layer, &mut next);
         }
-        assert!(out.vertices.len() < EXTERNAL as usize, "too many surface vertices for u32 indices");
+        assert!(
+            out.vertices.len() < EXTERNAL as usize,
+            "too many surface vertices for u32 indices"
+        );
         out
     }
 
-    /// Adds the vertex on the edge from voxel `(i, j, k)` along `direction` if the surface
-    /// crosses it, and records its index in `map[slot]`.
+    /// Adds the vertex on the edge from voxel `(i, j, k)` along `direction`, which the surface
+    /// crosses, and records its index in `slot`.
     #[inline(always)]
     fn edge_vertex(
         &self,
         [i, j, k]: [usize; 3],
-        a: T,
         direction: u8,
         slot: &mut u32,
         vertices: &mut Vec<EdgeVertex>,
     ) {
         let d = |bit: u8| (direction >> bit & 1) as usize;
+        let a = self.value(i, j, k);
         let b = self.value(i + d(0), j + d(1), k + d(2));
-        if inside(a, self.iso) == inside(b, self.iso) {
-            return;
-        }
         let t = crossing(a, b, self.iso);
         let g = DVec3::new(i as f64, j as f64, k as f64) + t * offset(direction);
         *slot = vertices.len() as u32;
@@ -231,51 +291,42 @@ impl<T: Sample> Slabber<'_, T> {
         });
     }
 
-    /// Makes the vertices on the in-plane edges of layer `i`.
-    fn layer_vertices(&self, i: usize, map: &mut [u32], vertices: &mut Vec<EdgeVertex>) {
+    /// Makes the vertices on the edges from voxels of layer `i` along `directions` (the
+    /// in-plane ones, or the ones to layer `i + 1`), recording them in `map`.
+    fn make_vertices(
+        &self,
+        i: usize,
+        directions: &[(u8, usize)],
+        map: &mut [u32],
+        vertices: &mut Vec<EdgeVertex>,
+    ) {
         let [_, ny, nz] = self.grid().dims;
+        let words = self.signs.words;
+        let slots = directions.len();
         for j in 0..ny {
-            let here = self.row_class(i, j);
-            let beside = if j + 1 < ny { self.row_class(i, j + 1) } else { here };
-            if uniform(&[here, beside]) {
-                continue;
-            }
-            for k in 0..nz {
-                let a = self.value(i, j, k);
-                let cell = &mut map[(j * nz + k) * 3..][..3];
-                for (direction, slot) in IN_PLANE {
-                    let dy = direction >> 1 & 1 == 1;
-                    let dz = direction >> 2 & 1 == 1;
-                    if (dy && j + 1 == ny) || (dz && k + 1 == nz) {
-                        continue;
-                    }
-                    self.edge_vertex([i, j, k], a, direction, &mut cell[slot], vertices);
+            let here = self.signs.row(ny, i, j);
+            for &(direction, slot) in directions {
+                let (dx, dy, dz) = (
+                    (direction & 1) as usize,
+                    (direction >> 1 & 1) as usize,
+                    direction >> 2 & 1 == 1,
+                );
+                if j + dy == ny {
+                    continue;
                 }
-            }
-        }
-    }
-
-    /// Makes the vertices on the edges from layer `i` to layer `i + 1`.
-    fn across_vertices(&self, i: usize, map: &mut [u32], vertices: &mut Vec<EdgeVertex>) {
-        let [_, ny, nz] = self.grid().dims;
-        for j in 0..ny {
-            let here = self.row_class(i, j);
-            let ahead = self.row_class(i + 1, j);
-            let diagonal = if j + 1 < ny { self.row_class(i + 1, j + 1) } else { ahead };
-            if uniform(&[here, ahead, diagonal]) {
-                continue;
-            }
-            for k in 0..nz {
-                let a = self.value(i, j, k);
-                let cell = &mut map[(j * nz + k) * 4..][..4];
-                for (direction, slot) in ACROSS {
-                    let dy = direction >> 1 & 1 == 1;
-                    let dz = direction >> 2 & 1 == 1;
-                    if (dy && j + 1 == ny) || (dz && k + 1 == nz) {
-                        continue;
-                    }
-                    self.edge_vertex([i, j, k], a, direction, &mut cell[slot], vertices);
-                }
+                let there = self.signs.row(ny, i + dx, j + dy);
+                let valid = if dz { nz - 1 } else { nz };
+                let crossing = |w: usize| {
+                    (here[w] ^ if dz { shifted(there, w) } else { there[w] }) & below(valid, w)
+                };
+                for_each_bit(words, crossing, |k| {
+                    self.edge_vertex(
+                        [i, j, k],
+                        direction,
+                        &mut map[(j * nz + k) * slots + slot],
+                        vertices,
+                    );
+                });
             }
         }
     }
@@ -286,50 +337,45 @@ impl<T: Sample> Slabber<'_, T> {
     fn march_layer(&self, i: usize, maps: [&[u32]; 3], triangles: &mut Vec<[u32; 3]>) {
         let [_, ny, nz] = self.grid().dims;
         let slots: [EdgeSlot; 64] = std::array::from_fn(|e| edge_slot(e as EdgeId));
-        let iso = self.iso;
+        let cases = &*CASES;
+        let words = self.signs.words;
         for j in 0..ny - 1 {
-            let classes = [
-                self.row_class(i, j),
-                self.row_class(i, j + 1),
-                self.row_class(i + 1, j),
-                self.row_class(i + 1, j + 1),
-            ];
-            if uniform(&classes) {
-                continue;
-            }
             // The four rows of corners, in corner-bit order (x is bit 0, y bit 1).
-            let row = |c: usize| {
-                let start = self.grid().index([i + (c & 1), j + (c >> 1), 0]);
-                &self.volume.data[start..start + nz]
+            let rows: [&[u64]; 4] =
+                std::array::from_fn(|c| self.signs.row(ny, i + (c & 1), j + (c >> 1)));
+            let mixed = |w: usize| {
+                let any = rows[0][w] | rows[1][w] | rows[2][w] | rows[3][w];
+                let all = rows[0][w] & rows[1][w] & rows[2][w] & rows[3][w];
+                let any_next = shifted(rows[0], w)
+                    | shifted(rows[1], w)
+                    | shifted(rows[2], w)
+                    | shifted(rows[3], w);
+                let all_next = shifted(rows[0], w)
+                    & shifted(rows[1], w)
+                    & shifted(rows[2], w)
+                    & shifted(rows[3], w);
+                (any | any_next) & !(all & all_next) & below(nz - 1, w)
             };
-            let corner_rows = [row(0), row(1), row(2), row(3)];
-            let column = |k: usize| {
-                corner_rows.iter().enumerate().fold(0u8, |bits, (c, r)| {
-                    bits | (inside(r[k], iso) as u8) << c
-                })
-            };
-            let mut low = column(0);
-            for k in 0..nz - 1 {
-                let high = column(k + 1);
-                let case = low | high << 4;
-                low = high;
-                if case == 0 || case == 255 {
-                    continue;
-                }
+            for_each_bit(words, mixed, |k| {
+                let case = (0..4).fold(0u8, |case, c| {
+                    case | bit(rows[c], k) << c | bit(rows[c], k + 1) << (c + 4)
+                });
                 let lookup = |e: EdgeId| -> u32 {
                     let s = slots[e as usize];
-                    let at = ((j + s.dj) * nz + k + s.dk) * 3 + s.slot;
+                    let cell = (j + s.dj) * nz + k + s.dk;
                     match s.map {
-                        MapKind::Layer => maps[0][at],
-                        MapKind::Across => maps[1][((j + s.dj) * nz + k + s.dk) * 4 + s.slot],
-                        MapKind::NextLayer if maps[2].is_empty() => EXTERNAL | at as u32,
-                        MapKind::NextLayer => maps[2][at],
+                        MapKind::Layer => maps[0][cell * 3 + s.slot],
+                        MapKind::Across => maps[1][cell * 4 + s.slot],
+                        MapKind::NextLayer if maps[2].is_empty() => {
+                            EXTERNAL | (cell * 3 + s.slot) as u32
+                        }
+                        MapKind::NextLayer => maps[2][cell * 3 + s.slot],
                     }
                 };
-                for piece in CASES.pieces(case) {
+                for piece in cases.pieces(case) {
                     self.emit(piece, [i, j, k], lookup, triangles);
                 }
-            }
+            });
         }
     }
 
@@ -382,32 +428,53 @@ fn stitch(slabs: Vec<SlabSurface>) -> Surface {
         nv += s.vertices.len();
         nt += s.triangles.len();
     }
-    assert!(nv <= u32::MAX as usize, "too many surface vertices for u32 indices");
+    assert!(
+        nv <= u32::MAX as usize,
+        "too many surface vertices for u32 indices"
+    );
     let mut triangles = vec![[0u32; 3]; nt];
-    let mut rest = &mut triangles[..];
-    let mut parts = Vec::with_capacity(slabs.len());
-    for s in &slabs {
-        let (part, tail) = rest.split_at_mut(s.triangles.len());
-        parts.push(part);
-        rest = tail;
-    }
-    parts.into_par_iter().enumerate().for_each(|(n, part)| {
-        let own = vertex_start[n] as u32;
-        let resolve = |v: u32| {
-            if v & EXTERNAL == 0 {
-                own + v
-            } else {
-                let next = &slabs[n + 1];
-                vertex_start[n + 1] as u32 + next.first_layer[(v & !EXTERNAL) as usize]
-            }
+    let mut vertices = vec![
+        EdgeVertex {
+            position: DVec3::ZERO,
+            base: 0,
+            direction: 0
         };
-        for (out, t) in part.iter_mut().zip(&slabs[n].triangles) {
-            *out = t.map(resolve);
-        }
-    });
-    let mut vertices = Vec::with_capacity(nv);
-    for s in slabs {
-        vertices.extend(s.vertices);
+        nv
+    ];
+    let triangle_parts = split_by(&mut triangles, slabs.iter().map(|s| s.triangles.len()));
+    let vertex_parts = split_by(&mut vertices, slabs.iter().map(|s| s.vertices.len()));
+    triangle_parts
+        .into_par_iter()
+        .zip(vertex_parts)
+        .enumerate()
+        .for_each(|(n, (triangles, vertices))| {
+            let own = vertex_start[n] as u32;
+            let resolve = |v: u32| {
+                if v & EXTERNAL == 0 {
+                    own + v
+                } else {
+                    let next = &slabs[n + 1];
+                    vertex_start[n + 1] as u32 + next.first_layer[(v & !EXTERNAL) as usize]
+                }
+            };
+            for (out, t) in triangles.iter_mut().zip(&slabs[n].triangles) {
+                *out = t.map(resolve);
+            }
+            vertices.copy_from_slice(&slabs[n].vertices);
+        });
+    Surface {
+        vertices,
+        triangles,
     }
-    Surface { vertices, triangles }
+}
+
+/// Splits `items` into consecutive parts of the given lengths.
+fn split_by<T>(mut items: &mut [T], lengths: impl Iterator<Item = usize>) -> Vec<&mut [T]> {
+    let mut parts = Vec::new();
+    for n in lengths {
+        let (part, rest) = items.split_at_mut(n);
+        parts.push(part);
+        items = rest;
+    }
+    parts
 }

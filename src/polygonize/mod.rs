@@ -54,8 +54,11 @@ use crate::mesh::Mesh;
 /// counter-clockwise seen from outside, so normals point toward decreasing values. The mesh is
 /// closed wherever the surface is closed inside the grid.
 ///
+/// The result is the same whatever the number of threads.
+///
 /// # Panics
-/// If `volume.data` does not hold exactly one value per voxel of `volume.grid`.
+/// If `volume.data` does not hold exactly one value per voxel of `volume.grid`, or if the mesh
+/// would need more than 2^32 vertices (far beyond any volume that fits in memory today).
 pub fn polygonize(volume: &Volume<f32>, iso: f32) -> Mesh {
     extract::extract(volume, iso).into_mesh()
 }
@@ -70,7 +73,8 @@ pub fn polygonize(volume: &Volume<f32>, iso: f32) -> Mesh {
 /// for [`polygonize`].
 ///
 /// # Panics
-/// If the field's [`Field::values`] returns a different number of values than points.
+/// If the field's [`Field::values`] returns a different number of values than points, or as
+/// for [`polygonize`].
 pub fn polygonize_field<F: Field + ?Sized>(field: &F, grid: &Grid) -> Mesh {
     let samples = sample(field, grid);
     let mut surface = extract::extract(&samples, 0.0);
@@ -93,7 +97,11 @@ fn sample<F: Field + ?Sized>(field: &F, grid: &Grid) -> Volume<f64> {
             .map(|n| grid.position(grid.voxel(n)))
             .collect();
         let values = field.values(&points);
-        assert_eq!(values.len(), points.len(), "Field::values must return one value per point");
+        assert_eq!(
+            values.len(),
+            points.len(),
+            "Field::values must return one value per point"
+        );
         data.extend(values);
         start = end;
     }

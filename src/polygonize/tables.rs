@@ -49,7 +49,11 @@ pub(super) const fn edge_direction(e: EdgeId) -> u8 {
 
 /// The offset of a corner or direction mask as a vector.
 pub(super) fn offset(mask: u8) -> DVec3 {
-    DVec3::new((mask & 1) as f64, ((mask >> 1) & 1) as f64, ((mask >> 2) & 1) as f64)
+    DVec3::new(
+        (mask & 1) as f64,
+        ((mask >> 1) & 1) as f64,
+        ((mask >> 2) & 1) as f64,
+    )
 }
 
 /// A surface piece inside one tetrahedron: a triangle (`len == 3`) or a quad (`len == 4`),
@@ -83,13 +87,13 @@ pub(super) static CASES: LazyLock<CaseTable> = LazyLock::new(build_table);
 fn build_table() -> CaseTable {
     let mut start = [0u16; 257];
     let mut pieces = Vec::new();
-    for case in 0..256usize {
-        start[case] = pieces.len() as u16;
-        for tet in &TETRAHEDRA {
-            if let Some(piece) = tetrahedron_piece(tet, case as u8) {
-                pieces.push(piece);
-            }
-        }
+    for (case, first) in start.iter_mut().take(256).enumerate() {
+        *first = pieces.len() as u16;
+        pieces.extend(
+            TETRAHEDRA
+                .iter()
+                .filter_map(|tet| tetrahedron_piece(tet, case as u8)),
+        );
     }
     start[256] = pieces.len() as u16;
     CaseTable { start, pieces }
@@ -102,9 +106,16 @@ fn tetrahedron_piece(tet: &[u8; 4], case: u8) -> Option<Piece> {
     let inside: Vec<u8> = tet.iter().copied().filter(|&c| is_inside(c)).collect();
     let outside: Vec<u8> = tet.iter().copied().filter(|&c| !is_inside(c)).collect();
     let mut edges: Vec<EdgeId> = match (inside.as_slice(), outside.as_slice()) {
-        ([a], [b, c, d]) | ([b, c, d], [a]) => vec![edge_id(*a, *b), edge_id(*a, *c), edge_id(*a, *d)],
+        ([a], [b, c, d]) | ([b, c, d], [a]) => {
+            vec![edge_id(*a, *b), edge_id(*a, *c), edge_id(*a, *d)]
+        }
         // Consecutive quad corners share a tetrahedron corner, so this is a cycle.
-        ([a, b], [c, d]) => vec![edge_id(*a, *c), edge_id(*a, *d), edge_id(*b, *d), edge_id(*b, *c)],
+        ([a, b], [c, d]) => vec![
+            edge_id(*a, *c),
+            edge_id(*a, *d),
+            edge_id(*b, *d),
+            edge_id(*b, *c),
+        ],
         _ => return None,
     };
     let centroid = |cs: &[u8]| cs.iter().map(|&c| offset(c)).sum::<DVec3>() / cs.len() as f64;
@@ -112,7 +123,10 @@ fn tetrahedron_piece(tet: &[u8; 4], case: u8) -> Option<Piece> {
     if piece_normal(&edges).dot(outward) < 0.0 {
         edges.reverse();
     }
-    let mut piece = Piece { edges: [0; 4], len: edges.len() as u8 };
+    let mut piece = Piece {
+        edges: [0; 4],
+        len: edges.len() as u8,
+    };
     piece.edges[..edges.len()].copy_from_slice(&edges);
     Some(piece)
 }
