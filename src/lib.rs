@@ -16,7 +16,6 @@
 //! | save and load models | [`model`] | |
 //! | error metrics E, Ew, RMS and the radius of regularity | [`metrics`] | 4.3 |
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
-//! | extract a surface as a mesh | [`polygonize`] | 5.2, figures |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
 //!
