@@ -15,9 +15,16 @@
 //! centre (see [`crate::distance`]), so a boundary voxel lying on the other shape's boundary too
 //! has an error of half a voxel: that is the floor of E, not zero. Errors are honest distances
 //! from voxel centres to the other surface.
+//!
+//! Beside the paper's figures, [`ErrorMetrics`] carries E and the RMS error to sub-voxel
+//! precision, measured from points on each surface (see [`SubVoxel`]); the fit ranks its
+//! candidates by these, so the half-voxel steps of voxel-centre distances do not turn into
+//! constraints.
 
 use rayon::prelude::*;
 
+use crate::distance;
+use crate::geometry::DVec3;
 use crate::grid::Volume;
 
 /// How the discrete radius of regularity is measured.
@@ -134,6 +141,10 @@ pub fn radii_of_regularity(
 
 /// One shape's boundary voxels with the other shape's signed distance at each, and this
 /// shape's radius of regularity there: one half of equations 3 and 4.
+///
+/// Each voxel also carries a point on this shape's surface next to it and the other shape's
+/// signed distance at that point, to sub-voxel precision (see [`SubVoxel`]): the fit ranks and
+/// places new constraints by these, free of the half-voxel steps of the voxel-centre distances.
 #[derive(Debug, Clone, Default)]
 pub struct BoundaryErrors {
     /// The boundary voxels ∂f of this shape.
@@ -142,17 +153,29 @@ pub struct BoundaryErrors {
     pub other_sd: Vec<f32>,
     /// This shape's radius of regularity at each voxel, in voxels.
     pub rreg: Vec<f32>,
+    /// A point on this shape's surface at each voxel, in continuous voxel coordinates.
+    pub points: Vec<DVec3>,
+    /// The other shape's signed distance at each point, to sub-voxel precision (voxels).
+    pub other_fine_sd: Vec<f32>,
 }
 
 impl BoundaryErrors {
-    /// Errors at `voxels` (boundary voxels of a shape whose radii are `rreg`) against the other
-    /// shape's signed distance `other`.
-    pub fn new(voxels: Vec<[usize; 3]>, rreg: Vec<f32>, other: &Volume<f32>) -> Self {
+    /// Errors at `voxels` (boundary voxels of a shape whose radii are `rreg` and whose surface
+    /// passes through `points`) against the other shape, seen through its voxel signed distance
+    /// `other` and its sub-voxel signed distance `other_fine`.
+    pub fn new(
+        voxels: Vec<[usize; 3]>,
+        rreg: Vec<f32>,
+        points: Vec<DVec3>,
+        other: &Volume<f32>,
+        other_fine: &SubVoxel,
+    ) -> Self {
         let other_sd = voxels.iter().map(|&v| *other.get(v)).collect();
-        BoundaryErrors { voxels, other_sd, rreg }
+        let other_fine_sd = points.par_iter().map(|&p| other_fine.signed_distance(p)).collect();
+        BoundaryErrors { voxels, other_sd, rreg, points, other_fine_sd }
     }
 
-    /// The error |sd| at voxel number `i`, in voxels.
+    /// The error |sd| at voxel number `i`, in voxels, as the paper measures it.
     pub fn error(&self, i: usize) -> f32 {
         self.other_sd[i].abs()
     }
@@ -161,17 +184,82 @@ impl BoundaryErrors {
     pub fn weighted_error(&self, i: usize) -> f32 {
         self.error(i) / self.rreg[i]
     }
+
+    /// The error at voxel number `i` to sub-voxel precision: the other shape's distance from
+    /// the point of this shape's surface there, in voxels.
+    pub fn fine_error(&self, i: usize) -> f32 {
+        self.other_fine_sd[i].abs()
+    }
+}
+
+/// A shape's signed distance to sub-voxel precision near its surface, from a volume of values
+/// that vary smoothly across it (densities, or the implicit function's values) and, further
+/// away, from its voxel signed distance.
+///
+/// Near the surface the distance is the first-order estimate `(v(p) - level) / |∇v(p)|` of the
+/// trilinear interpolation of the values, which is exact for a plane and within a small
+/// fraction of a voxel for surfaces curved on the scale of a few voxels. Where that estimate is
+/// unavailable (a flat stretch of values) or further than `reach` voxels, the trilinear
+/// interpolation of the voxel signed distance is used instead.
+#[derive(Debug, Clone, Copy)]
+pub struct SubVoxel<'a> {
+    /// Values whose `level` set is the surface, larger inside.
+    pub values: &'a Volume<f32>,
+    /// The surface's level.
+    pub level: f32,
+    /// The shape's voxel signed distance (voxel units, inside positive).
+    pub sd: &'a Volume<f32>,
+    /// How far from the surface (voxels) the first-order estimate is trusted.
+    pub reach: f32,
+}
+
+impl SubVoxel<'_> {
+    /// The signed distance at `p` (continuous voxel coordinates), inside positive, in voxels.
+    pub fn signed_distance(&self, p: DVec3) -> f32 {
+        let coarse = distance::sample(self.sd, p);
+        if coarse.abs() > self.reach + 1.0 {
+            return coarse;
+        }
+        match self.first_order(p) {
+            Some(d) if d.abs() <= self.reach => d,
+            _ => coarse,
+        }
+    }
+
+    /// `(v(p) - level) / |∇v(p)|`, or `None` where the gradient vanishes.
+    fn first_order(&self, p: DVec3) -> Option<f32> {
+        let gradient = distance::gradient(self.values, p).length();
+        let value = f64::from(distance::sample(self.values, p) - self.level);
+        (gradient > 1e-12).then(|| (value / gradient) as f32)
+    }
+
+    /// The point of the surface nearest `p` to first order (one Newton step along the
+    /// gradient, at most `reach` voxels), or `p` itself where the gradient vanishes.
+    pub fn project(&self, p: DVec3) -> DVec3 {
+        let gradient = distance::gradient(self.values, p);
+        let g2 = gradient.length_squared();
+        if g2 <= 1e-24 {
+            return p;
+        }
+        let value = f64::from(distance::sample(self.values, p) - self.level);
+        p - (gradient * (value / g2)).clamp_length_max(f64::from(self.reach))
+    }
 }
 
 /// E, Ew and the RMS error of one current surface against the goal.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
 pub struct ErrorMetrics {
-    /// E (equation 3), in voxels.
+    /// E (equation 3), in voxels, from voxel-centre signed distances as in the paper.
     pub max_error: f32,
     /// Ew (equation 4), dimensionless.
     pub weighted_error: f32,
     /// Root mean square of the errors over both boundaries, in voxels.
     pub rms_error: f32,
+    /// E to sub-voxel precision: the largest distance from a surface point of either shape to
+    /// the other shape, in voxels.
+    pub max_error_subvoxel: f32,
+    /// The root mean square of the sub-voxel errors, in voxels.
+    pub rms_error_subvoxel: f32,
 }
 
 impl ErrorMetrics {
@@ -179,19 +267,22 @@ impl ErrorMetrics {
     /// current surface's boundary (errors against the goal).
     pub fn measure(goal: &BoundaryErrors, current: &BoundaryErrors) -> Self {
         let mut metrics = ErrorMetrics::default();
-        let mut sum_sq = 0.0f64;
+        let (mut sum_sq, mut fine_sum_sq) = (0.0f64, 0.0f64);
         let mut count = 0usize;
         for side in [goal, current] {
             for i in 0..side.voxels.len() {
-                let e = side.error(i);
+                let (e, fine) = (side.error(i), side.fine_error(i));
                 metrics.max_error = metrics.max_error.max(e);
                 metrics.weighted_error = metrics.weighted_error.max(side.weighted_error(i));
+                metrics.max_error_subvoxel = metrics.max_error_subvoxel.max(fine);
                 sum_sq += f64::from(e) * f64::from(e);
+                fine_sum_sq += f64::from(fine) * f64::from(fine);
                 count += 1;
             }
         }
         if count > 0 {
             metrics.rms_error = (sum_sq / count as f64).sqrt() as f32;
+            metrics.rms_error_subvoxel = (fine_sum_sq / count as f64).sqrt() as f32;
         }
         metrics
     }

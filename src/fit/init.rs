@@ -47,7 +47,7 @@ fn random_boundary_constraints(goal: &Goal, options: &FitOptions) -> Vec<FitCons
         if f64::from(goal.rreg[i]) < options.initial_min_rreg {
             continue;
         }
-        let position = distance::surface_point(&goal.density, goal.boundary[i]);
+        let position = goal.surface[i];
         if chosen.iter().all(|c| c.position.distance(position) >= options.initial_spacing) {
             chosen.push(FitConstraint { position, value: 0.0, error: 0.0 });
         }

@@ -24,11 +24,13 @@ pub mod report;
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 use crate::distance;
 use crate::error::Result;
 use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
-use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions};
+use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions, SubVoxel};
 use crate::rbf::{self, Implicit, Kernel};
 
 pub use goal::Goal;
@@ -67,6 +69,12 @@ pub struct FitOptions {
     pub max_iterations: usize,
     /// Never add constraints beyond this many in all.
     pub max_constraints: usize,
+    /// At most this fraction of the current count is added in one iteration (at least
+    /// `initial_constraints / 5`), greatest error first. The paper adds every candidate that
+    /// survives pruning; late in a fit, when E is small, that is hundreds at once, which pull on
+    /// each other and overshoot. Growing by a fraction keeps the paper's order and pruning and
+    /// lets the next iteration see what the last additions did.
+    pub max_growth: f64,
     /// The radial basis function.
     pub kernel: Kernel,
     /// How radii of regularity are measured.
@@ -89,6 +97,7 @@ impl Default for FitOptions {
             patience: 4,
             max_iterations: 40,
             max_constraints: 2000,
+            max_growth: std::env::var("GROWTH").ok().and_then(|g| g.parse().ok()).unwrap_or(0.2),
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
         }
@@ -164,14 +173,13 @@ pub fn fit(
         }
         let clock = Instant::now();
         let mut added = refine::new_constraints(
-            goal,
             &measured.goal_side,
             &measured.current_side,
-            metrics.max_error,
+            metrics.max_error_subvoxel,
             &constraints,
             options,
         );
-        added.truncate(options.max_constraints - constraints.len());
+        added.truncate(added_limit(constraints.len(), options));
         totals.misc += clock.elapsed().as_secs_f64();
         if added.is_empty() {
             termination = "no candidate survived pruning".to_string();
@@ -216,8 +224,14 @@ fn measure(goal: &Goal, implicit: &Implicit, options: &FitOptions, timings: &mut
     let clock = Instant::now();
     let current_boundary = distance::boundary_voxels(&sd_current);
     let current_rreg = metrics::radii_of_regularity(&sd_current, &current_boundary, &options.regularity);
-    let goal_side = BoundaryErrors::new(goal.boundary.clone(), goal.rreg.clone(), &sd_current);
-    let current_side = BoundaryErrors::new(current_boundary, current_rreg, &goal.sd);
+    let current_fine = SubVoxel { values: &values, level: 0.0, sd: &sd_current, reach: 2.0 };
+    let current_points = current_boundary
+        .par_iter()
+        .map(|v| current_fine.project(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)))
+        .collect();
+    let goal_side =
+        BoundaryErrors::new(goal.boundary.clone(), goal.rreg.clone(), goal.surface.clone(), &sd_current, &current_fine);
+    let current_side = BoundaryErrors::new(current_boundary, current_rreg, current_points, &goal.sd, &goal.sub_voxel());
     let metrics = ErrorMetrics::measure(&goal_side, &current_side);
     timings.misc += clock.elapsed().as_secs_f64();
     Measured { metrics, goal_side, current_side }
@@ -242,9 +256,16 @@ pub fn solve(grid: &Grid, constraints: &[FitConstraint], kernel: Kernel) -> Resu
     Implicit::solve(dim, kernel, &rbf_constraints)
 }
 
-/// Whether `a` is a better model than `b`: smaller E, then smaller RMS (paper 5.4).
+/// How many constraints one iteration may add to `count` (see [`FitOptions::max_growth`]).
+fn added_limit(count: usize, options: &FitOptions) -> usize {
+    let growth = (count as f64 * options.max_growth).ceil() as usize;
+    growth.max(options.initial_constraints / 5).min(options.max_constraints.saturating_sub(count))
+}
+
+/// Whether `a` is a better model than `b`: smaller E, then smaller RMS (paper 5.4), the RMS
+/// to sub-voxel precision, which separates models that voxel-centre distances would tie.
 fn better(a: &ErrorMetrics, b: &ErrorMetrics) -> bool {
-    (a.max_error, a.rms_error) < (b.max_error, b.rms_error)
+    (a.max_error, a.rms_error_subvoxel) < (b.max_error, b.rms_error_subvoxel)
 }
 
 /// Why the loop stops after this iteration, if it does (paper 5.4).

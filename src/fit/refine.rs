@@ -3,7 +3,13 @@
 //! Candidates come from both boundaries. A goal boundary voxel y, whose error is sd_curr(y),
 //! gives a boundary constraint on the goal's surface at sub-voxel precision from the densities.
 //! A current boundary voxel x, whose error is sd_goal(x), gives a soft interior or exterior
-//! constraint at x that takes the goal's signed distance there as its value.
+//! constraint that takes the goal's signed distance as its value; it is placed on the current
+//! surface next to x (one Newton step from the voxel centre), where that distance is the error.
+//!
+//! Errors here are measured to sub-voxel precision ([`crate::metrics::SubVoxel`]) rather than
+//! at voxel centres: a voxel-centre distance is off by up to a voxel, and near the end of a fit
+//! those steps would pass the error rules below and flood the model with constraints that
+//! correct nothing.
 //!
 //! The candidates are taken greatest error first and pruned by the paper's four rules:
 //! 1. within `2 sd(x)` of a voxel x where a constraint was added this iteration (so the circles
@@ -12,10 +18,7 @@
 //! 3. an error less than `error_fraction` (half) of E, too fine an adjustment for now;
 //! 4. a weighted error less than `min_weighted_error` (0.125), most likely unnoticeable.
 
-use super::goal::Goal;
 use super::{FitConstraint, FitOptions};
-use crate::distance;
-use crate::geometry::DVec3;
 use crate::metrics::BoundaryErrors;
 
 /// A candidate constraint with the errors that rank and prune it.
@@ -28,10 +31,9 @@ struct Candidate {
 /// The constraints to add this iteration, greatest error first.
 ///
 /// `goal_side` holds the goal's boundary voxels with sd_curr at each, `current_side` the current
-/// surface's boundary voxels with sd_goal at each; `max_error` is E; `existing` are the
-/// constraints of the current model.
+/// surface's boundary voxels with sd_goal at each; `max_error` is E to sub-voxel precision;
+/// `existing` are the constraints of the current model.
 pub fn new_constraints(
-    goal: &Goal,
     goal_side: &BoundaryErrors,
     current_side: &BoundaryErrors,
     max_error: f32,
@@ -41,18 +43,20 @@ pub fn new_constraints(
     let min_error = max_error * options.error_fraction;
     let mut candidates = Vec::new();
     for i in 0..goal_side.voxels.len() {
-        let (error, weighted) = (goal_side.error(i), goal_side.weighted_error(i));
+        let error = goal_side.fine_error(i);
+        let weighted = error / goal_side.rreg[i];
         if error >= min_error && weighted >= options.min_weighted_error {
-            let position = distance::surface_point(&goal.density, goal_side.voxels[i]);
+            let position = goal_side.points[i];
             let constraint = FitConstraint { position, value: 0.0, error };
             candidates.push(Candidate { constraint, weighted_error: weighted });
         }
     }
     for i in 0..current_side.voxels.len() {
-        let (error, weighted) = (current_side.error(i), current_side.weighted_error(i));
+        let error = current_side.fine_error(i);
+        let weighted = error / current_side.rreg[i];
         if error >= min_error && weighted >= options.min_weighted_error {
-            let position = voxel_centre(current_side.voxels[i]);
-            let value = f64::from(current_side.other_sd[i]);
+            let position = current_side.points[i];
+            let value = f64::from(current_side.other_fine_sd[i]);
             let constraint = FitConstraint { position, value, error };
             candidates.push(Candidate { constraint, weighted_error: weighted });
         }
@@ -89,9 +93,4 @@ fn select(
         }
     }
     added
-}
-
-/// The centre of a voxel in continuous grid coordinates.
-fn voxel_centre(v: [usize; 3]) -> DVec3 {
-    DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)
 }

@@ -64,6 +64,10 @@ pub struct IterationReport {
     pub weighted_error: f32,
     /// RMS error, in voxels.
     pub rms_error_voxels: f32,
+    /// E to sub-voxel precision (from surface points rather than voxel centres), in voxels.
+    pub max_error_subvoxel_voxels: f32,
+    /// The RMS error to sub-voxel precision, in voxels.
+    pub rms_error_subvoxel_voxels: f32,
     /// Time spent in this iteration.
     pub timings_s: Timings,
 }
@@ -77,6 +81,8 @@ impl IterationReport {
             max_error_voxels: metrics.max_error,
             weighted_error: metrics.weighted_error,
             rms_error_voxels: metrics.rms_error,
+            max_error_subvoxel_voxels: metrics.max_error_subvoxel,
+            rms_error_subvoxel_voxels: metrics.rms_error_subvoxel,
             timings_s,
         }
     }
@@ -84,15 +90,17 @@ impl IterationReport {
     /// One line for the terminal: iteration, constraints, E, Ew, RMS, time.
     pub fn line(&self) -> String {
         format!(
-            "iteration {:>3}  constraints {:>5} ({} zero, {} in, {} out)  E {:>6.2}  Ew {:>6.3}  RMS {:>6.3}  {:>6.2} s",
+            "iteration {:>3}  constraints {:>5} ({} zero, {} in, {} out)  E {:>6.2} ({:.2})  Ew {:>6.3}  RMS {:>6.3} ({:.3})  {:>6.2} s",
             self.iteration,
             self.constraints.total(),
             self.constraints.boundary,
             self.constraints.interior,
             self.constraints.exterior,
             self.max_error_voxels,
+            self.max_error_subvoxel_voxels,
             self.weighted_error,
             self.rms_error_voxels,
+            self.rms_error_subvoxel_voxels,
             self.timings_s.total,
         )
     }
