@@ -48,7 +48,7 @@ use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
 use crate::mesh::Mesh;
 
-use rays::{Rays, vote};
+use rays::{Rays, plane_axes, vote};
 use winding::Winding;
 
 /// How to voxelize. The default suits the paper's volumes.
@@ -86,25 +86,28 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
         || Winding::new(triangles.clone()),
     );
     let classifier = Classifier { rays, winding, s };
-    let centre: Vec<bool> = (0..grid.len())
-        .into_par_iter()
-        .map(|index| {
-            let [i, j, k] = grid.voxel(index);
-            let h = (s - 1) / 2;
-            classifier.inside([i * s + h, j * s + h, k * s + h])
-        })
-        .collect();
-    let data = (0..grid.len())
-        .into_par_iter()
-        .map(|index| {
-            let voxel = grid.voxel(index);
-            if at_surface(grid, &centre, voxel) {
-                classifier.density(voxel)
-            } else {
-                f32::from(u8::from(centre[index]))
+    let [_, ny, nz] = grid.dims;
+    let mut centre = vec![false; grid.len()];
+    centre.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
+        for j in 0..ny {
+            for k in 0..nz {
+                slab[j * nz + k] = classifier.centre_inside([i, j, k]);
             }
-        })
-        .collect();
+        }
+    });
+    let mut data = vec![0.0f32; grid.len()];
+    data.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
+        for j in 0..ny {
+            for k in 0..nz {
+                let voxel = [i, j, k];
+                slab[j * nz + k] = if at_surface(grid, &centre, voxel) {
+                    classifier.density(voxel)
+                } else {
+                    f32::from(u8::from(centre[grid.index(voxel)]))
+                };
+            }
+        }
+    });
     Ok(Volume { grid: *grid, data })
 }
 
@@ -150,49 +153,88 @@ fn at_surface(grid: &Grid, centre: &[bool], voxel: [usize; 3]) -> bool {
     })
 }
 
-/// Classifies points of the fine lattice (grid coordinates times `s`, plus `(s - 1) / 2`).
+/// Classifies points of the voxels' sub-lattices: sample `b` (0..s) along an axis of voxel `i`
+/// lies at grid coordinate `i + (b - h) / s`, `h = (s - 1) / 2`.
 struct Classifier {
     rays: [Rays; 3],
     winding: Winding,
     s: usize,
 }
 
-impl Classifier {
-    /// The fine lattice point's position in grid coordinates.
-    fn position(&self, f: [usize; 3]) -> DVec3 {
-        let h = ((self.s - 1) / 2) as f64;
-        DVec3::from_array(f.map(|x| (x as f64 - h) / self.s as f64))
+/// The votes of the rays at one point.
+#[derive(Debug, Clone, Copy, Default)]
+struct Votes {
+    inside: u8,
+    outside: u8,
+}
+
+impl Votes {
+    fn add(&mut self, vote: Option<bool>) {
+        match vote {
+            Some(true) => self.inside += 1,
+            Some(false) => self.outside += 1,
+            None => {}
+        }
     }
 
-    /// Whether fine lattice point `f` is inside: the rays' votes, the winding number where
-    /// they are too few or disagree.
-    fn inside(&self, f: [usize; 3]) -> bool {
-        let p = self.position(f);
-        let (mut yes, mut no) = (0, 0);
+    /// The verdict when at least two rays vote and all agree.
+    fn verdict(self) -> Option<bool> {
+        match (self.inside, self.outside) {
+            (n, 0) if n >= 2 => Some(true),
+            (0, n) if n >= 2 => Some(false),
+            _ => None,
+        }
+    }
+}
+
+impl Classifier {
+    /// Whether `p` (grid coordinates) is inside, given the rays' votes there: their verdict,
+    /// or the winding number where they are too few or disagree.
+    fn decide(&self, votes: Votes, p: DVec3) -> bool {
+        votes.verdict().unwrap_or_else(|| self.winding.at(p) > 0.5)
+    }
+
+    /// Whether the centre of `voxel` is inside.
+    fn centre_inside(&self, voxel: [usize; 3]) -> bool {
+        let h = (self.s - 1) / 2;
+        let centre_ray = h * self.s + h;
+        let mut votes = Votes::default();
         for (axis, rays) in self.rays.iter().enumerate() {
-            match vote(rays.ray(f, self.s), p[axis]) {
-                Some(true) => yes += 1,
-                Some(false) => no += 1,
-                None => {}
-            }
+            let (u, v) = plane_axes(axis);
+            let hits = rays.ray(voxel[u], voxel[v], centre_ray);
+            votes.add(vote(hits, voxel[axis] as f64));
         }
-        match (yes, no) {
-            (y, 0) if y >= 2 => true,
-            (0, n) if n >= 2 => false,
-            _ => self.winding.at(p) > 0.5,
-        }
+        self.decide(votes, DVec3::from_array(voxel.map(|x| x as f64)))
+    }
+
+    /// The offset of sub-sample `b` from its voxel's centre.
+    fn offset(&self, b: usize) -> f64 {
+        (b as f64 - ((self.s - 1) / 2) as f64) / self.s as f64
     }
 
     /// The fraction of the voxel's `s^3` samples inside.
-    fn density(&self, [i, j, k]: [usize; 3]) -> f32 {
+    fn density(&self, voxel: [usize; 3]) -> f32 {
         let s = self.s;
-        let mut count = 0usize;
-        for a in 0..s {
-            for b in 0..s {
-                for c in 0..s {
-                    count += usize::from(self.inside([i * s + a, j * s + b, k * s + c]));
+        let mut votes = vec![Votes::default(); s * s * s];
+        for (axis, rays) in self.rays.iter().enumerate() {
+            let (u, v) = plane_axes(axis);
+            for bu in 0..s {
+                for bv in 0..s {
+                    let hits = rays.ray(voxel[u], voxel[v], bu * s + bv);
+                    for ba in 0..s {
+                        let mut b = [0; 3];
+                        (b[axis], b[u], b[v]) = (ba, bu, bv);
+                        let x = voxel[axis] as f64 + self.offset(ba);
+                        votes[(b[0] * s + b[1]) * s + b[2]].add(vote(hits, x));
+                    }
                 }
             }
+        }
+        let mut count = 0usize;
+        for (n, &v) in votes.iter().enumerate() {
+            let b = [n / (s * s), n / s % s, n % s];
+            let p = DVec3::from_array(std::array::from_fn(|a| voxel[a] as f64 + self.offset(b[a])));
+            count += usize::from(self.decide(v, p));
         }
         count as f32 / (s * s * s) as f32
     }

@@ -20,17 +20,19 @@ use crate::geometry::DVec3;
 pub(crate) struct Hit {
     /// Where along the ray, in grid coordinates.
     pub t: f64,
-    /// The sub-ray of the column.
+    /// The sub-ray of the column (needed only while sorting).
     pub sub: u8,
     /// +1 if the ray enters the (re-oriented) mesh here going forward, -1 if it leaves.
     pub enter: i8,
 }
 
-/// Every crossing of the rays along one axis, grouped by coarse column.
+/// Every crossing of the rays along one axis, grouped by coarse column and sub-ray.
 pub(crate) struct Rays {
-    axis: usize,
     n_v: usize,
-    /// Hits of column `u * n_v + v` are `hits[start[c]..start[c + 1]]`, sorted by (sub, t).
+    /// Sub-rays per column, `s * s`.
+    subs: usize,
+    /// Hits of sub-ray `r` of column `c = u * n_v + v` are `hits[start[i]..start[i + 1]]`
+    /// with `i = c * subs + r`, sorted along the ray.
     start: Vec<usize>,
     hits: Vec<Hit>,
 }
@@ -86,14 +88,14 @@ impl Rays {
                     }
                 }
                 found.sort_unstable_by(|(c, x), (d, y)| (c, x.sub).cmp(&(d, y.sub)).then(x.t.total_cmp(&y.t)));
-                let mut counts = vec![0usize; n_v];
-                for (c, _) in &found {
-                    counts[*c as usize] += 1;
+                let mut counts = vec![0usize; n_v * s * s];
+                for (c, hit) in &found {
+                    counts[*c as usize * s * s + usize::from(hit.sub)] += 1;
                 }
                 (counts, found.into_iter().map(|(_, hit)| hit).collect())
             })
             .collect();
-        let mut start = Vec::with_capacity(n_u * n_v + 1);
+        let mut start = Vec::with_capacity(n_u * n_v * s * s + 1);
         let mut hits = Vec::with_capacity(per_row.iter().map(|r| r.1.len()).sum());
         start.push(0);
         for (counts, row_hits) in per_row {
@@ -102,23 +104,14 @@ impl Rays {
             }
             hits.extend(row_hits);
         }
-        Rays { axis, n_v, start, hits }
+        Rays { n_v, subs: s * s, start, hits }
     }
 
-    /// The hits of the ray through fine lattice point `f` (grid coordinates times `s` plus
-    /// `h`, per axis), sorted along the ray.
+    /// The hits of sub-ray `sub` of coarse column `(u, v)`, sorted along the ray.
     #[inline]
-    pub(crate) fn ray(&self, f: [usize; 3], s: usize) -> &[Hit] {
-        let (u, v) = plane_axes(self.axis);
-        let col = (f[u] / s) * self.n_v + f[v] / s;
-        let hits = &self.hits[self.start[col]..self.start[col + 1]];
-        if s == 1 {
-            return hits;
-        }
-        let sub = ((f[u] % s) * s + f[v] % s) as u8;
-        let lo = hits.partition_point(|h| h.sub < sub);
-        let hi = lo + hits[lo..].partition_point(|h| h.sub == sub);
-        &hits[lo..hi]
+    pub(crate) fn ray(&self, u: usize, v: usize, sub: usize) -> &[Hit] {
+        let i = (u * self.n_v + v) * self.subs + sub;
+        &self.hits[self.start[i]..self.start[i + 1]]
     }
 }
 

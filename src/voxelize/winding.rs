@@ -9,8 +9,10 @@
 
 use crate::geometry::DVec3;
 
-/// A cluster is approximated when the query is farther than `BETA` times its radius.
-const BETA: f64 = 4.0;
+/// A cluster is approximated when the query is farther than `BETA` times its radius. The
+/// dipole's error is then a few hundredths at most, next to a surface; the voxelizer only
+/// compares `w` with 1/2.
+const BETA: f64 = 2.0;
 /// Most triangles in a leaf.
 const LEAF: usize = 8;
 
@@ -83,8 +85,12 @@ impl Winding {
             return 0.0;
         }
         let mut sum = 0.0;
-        let mut stack = vec![0usize];
-        while let Some(n) = stack.pop() {
+        // The tree is balanced (median splits), so its depth is about log2(triangles / LEAF).
+        let mut stack = [0usize; 128];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let n = stack[top];
             let node = &self.nodes[n];
             let d = node.centre - q;
             let dist = d.length();
@@ -96,8 +102,9 @@ impl Winding {
                     sum += solid_angle(t, q);
                 }
             } else {
-                stack.push(n + 1);
-                stack.push(node.right as usize);
+                stack[top] = n + 1;
+                stack[top + 1] = node.right as usize;
+                top += 2;
             }
         }
         sum / (4.0 * std::f64::consts::PI)
@@ -151,7 +158,7 @@ mod tests {
     fn one_inside_zero_outside_half_on_open_half() {
         let w = Winding::new(cube(12));
         assert!((w.at(DVec3::splat(0.5)) - 1.0).abs() < 1e-2);
-        assert!((w.at(DVec3::new(0.2, 0.3, 0.9)) - 1.0).abs() < 2e-2);
+        assert!((w.at(DVec3::new(0.2, 0.3, 0.9)) - 1.0).abs() < 5e-2);
         assert!(w.at(DVec3::new(1.5, 0.5, 0.5)).abs() < 2e-2);
         assert!(w.at(DVec3::new(40.0, -3.0, 7.0)).abs() < 1e-3);
         // Without the top face (z = 1) the centre sees 5/6 of the sphere.
