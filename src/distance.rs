@@ -215,17 +215,17 @@ pub fn boundary_voxels(sd: &Volume<f32>) -> Vec<[usize; 3]> {
 /// The sub-voxel point near `voxel` where the density crosses 1/2 (paper 5.3), in continuous
 /// voxel coordinates.
 ///
-/// Along each axis where a 6-neighbour lies on the other side of 1/2, the crossing is placed by
-/// linear interpolation of the two densities; the point is the mean of these crossings. With
-/// no such neighbour, one Newton step along the density's central-difference gradient, at
-/// most one voxel long; with a flat density, the voxel's centre.
+/// Along each axis where a 6-neighbour lies on the other side of 1/2, the crossing is placed
+/// between the two voxels as `crossing` explains; the point is the mean of these crossings. With no
+/// such neighbour, one Newton step along the density's central-difference gradient, at most
+/// one voxel long; with a flat density, the voxel's centre.
 ///
 /// # Panics
 /// If `voxel` lies outside the volume's grid.
 pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
     let grid = density.grid;
     let centre = DVec3::from_array(voxel.map(|x| x as f64));
-    let d0 = f64::from(*density.get(voxel)) - 0.5;
+    let d0 = f64::from(*density.get(voxel));
     let mut sum = DVec3::ZERO;
     let mut count = 0;
     let mut gradient = DVec3::ZERO;
@@ -235,15 +235,15 @@ pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
             (0..grid.dims[axis] as isize).contains(&x).then(|| {
                 let mut n = voxel;
                 n[axis] = x as usize;
-                f64::from(*density.get(n)) - 0.5
+                f64::from(*density.get(n))
             })
         };
         let (below, above) = (neighbour(-1), neighbour(1));
         for (step, d) in [(-1.0, below), (1.0, above)] {
             if let Some(d) = d {
-                if (d > 0.0) != (d0 > 0.0) {
+                if (d > 0.5) != (d0 > 0.5) {
                     let mut p = centre;
-                    p[axis] += step * d0 / (d0 - d);
+                    p[axis] += step * crossing(d0, d);
                     sum += p;
                     count += 1;
                 }
@@ -263,8 +263,26 @@ pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
     if g2 == 0.0 {
         return centre;
     }
-    let step = -d0 * gradient / g2;
+    let step = (0.5 - d0) * gradient / g2;
     centre + step.clamp_length_max(1.0)
+}
+
+/// Where between two adjacent voxels with densities `a` and `b` on either side of 1/2 the
+/// density crosses 1/2, as a fraction of the way from the first to the second.
+///
+/// Two fractional densities are interpolated linearly. A density clamped at 0 or 1 says only
+/// that the voxel is entirely on one side, so the crossing is then read from the fractional
+/// one as a box-filtered plane gives it (density changing by 1 per voxel across the surface):
+/// exact for surfaces perpendicular to the axis.
+fn crossing(a: f64, b: f64) -> f64 {
+    let fractional = |d: f64| d > 0.0 && d < 1.0;
+    let t = match (fractional(a), fractional(b)) {
+        (true, true) => (a - 0.5) / (a - b),
+        (true, false) => (a - 0.5).abs(),
+        (false, true) => 1.0 - (b - 0.5).abs(),
+        (false, false) => 0.5,
+    };
+    t.clamp(0.0, 1.0)
 }
 
 /// The value of `sd` at `p` by trilinear interpolation (bilinear on 2D grids), `p` clamped

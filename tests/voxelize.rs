@@ -369,3 +369,32 @@ fn bad_input_is_an_error_not_a_panic() {
     };
     assert!(voxelize(&good, &empty, &o).is_err());
 }
+
+#[test]
+fn surface_points_of_a_voxelized_sphere_lie_on_it() {
+    use implicitize::distance::{boundary_voxels, signed_distance, surface_point};
+    let (c, r) = (DVec3::new(-4.0, 7.0, 1.0), 3.0);
+    let mesh = sphere(c, r, 5);
+    let grid = grid_for(&mesh, 48);
+    let density = voxelize(&mesh, &grid, &VoxelizeOptions::default()).unwrap();
+    let boundary = boundary_voxels(&signed_distance(&inside(&density)));
+    assert!(boundary.len() > 2000);
+    let errors: Vec<f64> = boundary
+        .iter()
+        .map(|&v| {
+            (grid.to_world(surface_point(&density, v)).distance(c) - r).abs() / grid.voxel_size
+        })
+        .collect();
+    let centres: Vec<f64> = boundary
+        .iter()
+        .map(|&v| (grid.position(v).distance(c) - r).abs() / grid.voxel_size)
+        .collect();
+    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
+    let worst = errors.iter().cloned().fold(0.0, f64::max);
+    assert!(
+        mean(&errors) < 0.06 && worst < 0.3,
+        "mean {} max {worst} voxels",
+        mean(&errors)
+    );
+    assert!(mean(&errors) < 0.5 * mean(&centres));
+}
