@@ -8,7 +8,7 @@
 //!
 //! Points are classified as the paper does, by casting grids of parallel rays through the mesh
 //! and counting crossings, but along all three axes, and with the votes of the three rays
-//! combined in the spirit of Nooruddin and Turk (the paper's reference [5]):
+//! combined in the spirit of Nooruddin and Turk (the paper's reference \[5\]):
 //!
 //! * The mesh is first re-oriented consistently (orientation propagated across manifold edges,
 //!   each component keeping the orientation of most of its area, the whole turned outward if
@@ -25,17 +25,26 @@
 //! their mean (a box filter) is the voxel's density; every other voxel gets 0 or 1.
 //!
 //! # Guarantees
-//! * Closed meshes (every edge shared by two triangles), whatever the orientation of their
-//!   triangles, even with many flipped: all rays balance or have even counts, so the result is
-//!   the nonzero rule for consistently orientable meshes and parity otherwise. Overlapping
-//!   closed parts come out as their union, inner shells facing inward stay hollow.
-//! * Open meshes: rays through a hole abstain or disagree, and there the winding number closes
-//!   the hole along a minimal-area-like cap, as `w > 1/2` does (the Stanford bunny comes out
-//!   solid). Points far from holes are decided by the rays alone.
-//! * Self-intersecting meshes: the nonzero rule along balanced rays, the winding number
-//!   elsewhere; regions wound twice count as inside.
-//! * Densities are in `[0, 1]`; features thinner than a voxel whose neighbours all agree are
-//!   not supersampled and may be lost, as with any sampling at the grid's resolution.
+//! * Closed manifold meshes, whatever the orientation of their triangles (any number flipped,
+//!   or all): re-orientation makes every component consistent, every ray balances, and all
+//!   three rays give the exact winding number, so the result is the nonzero rule, exact up to
+//!   floating-point ties. Overlapping closed parts come out as their union; an inner shell that
+//!   faces inward in the file stays a hollow.
+//! * Closed meshes that cannot be oriented consistently (non-manifold edges with flips): rays
+//!   vote by parity; where they disagree the winding number decides.
+//! * Open meshes: rays through a hole abstain or disagree, and there `w > 1/2` closes the hole
+//!   as a soap film spanning its rim would (the Stanford bunny comes out solid); points whose
+//!   rays miss the holes are decided by the rays alone. Missing parts larger than a hole's rim
+//!   can span are not recovered.
+//! * Self-intersecting meshes: the nonzero rule along balanced rays (regions wound twice are
+//!   inside), the winding number elsewhere.
+//! * Densities lie in `[0, 1]` in multiples of `1/s^3`. Features thinner than a voxel whose
+//!   centre and neighbours all fall outside them are not supersampled and may be lost, as with
+//!   any sampling at the grid's resolution.
+//!
+//! Work and memory: the rays cost time proportional to the mesh's projected area times `s^2`;
+//! the classification is parallel over slabs of the grid (rayon). Besides the densities
+//! (4 bytes a voxel), one byte a voxel holds the centres' states while voxelizing.
 
 mod orient;
 mod rays;
