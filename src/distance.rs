@@ -19,7 +19,10 @@ use crate::grid::Volume;
 
 /// Inside/outside from densities: inside where the density exceeds 1/2.
 pub fn inside(density: &Volume<f32>) -> Volume<bool> {
-    Volume { grid: density.grid, data: density.data.par_iter().map(|&d| d > 0.5).collect() }
+    Volume {
+        grid: density.grid,
+        data: density.data.par_iter().map(|&d| d > 0.5).collect(),
+    }
 }
 
 /// The exact signed Euclidean distance transform of `inside`, in voxels, inside positive:
@@ -36,17 +39,21 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
         return Volume { grid, data: d2 };
     }
     // Along k: rows are contiguous.
-    d2.par_chunks_mut(nz).zip(states.par_chunks(nz)).for_each(|(row, state)| {
-        row_distances(state, row);
-    });
+    d2.par_chunks_mut(nz)
+        .zip(states.par_chunks(nz))
+        .for_each(|(row, state)| {
+            row_distances(state, row);
+        });
     // Along j: within each i-slab.
-    d2.par_chunks_mut(ny * nz).zip(states.par_chunks(ny * nz)).for_each(|(slab, state)| {
-        let mut line = Line::new(ny);
-        for k in 0..nz {
-            line.load(|j| (state[j * nz + k], slab[j * nz + k]));
-            line.solve(|j, d| slab[j * nz + k] = d);
-        }
-    });
+    d2.par_chunks_mut(ny * nz)
+        .zip(states.par_chunks(ny * nz))
+        .for_each(|(slab, state)| {
+            let mut line = Line::new(ny);
+            for k in 0..nz {
+                line.load(|j| (state[j * nz + k], slab[j * nz + k]));
+                line.solve(|j, d| slab[j * nz + k] = d);
+            }
+        });
     // Along i: lines cross every slab, so j-planes are computed in parallel batches and
     // written back after each batch.
     let batch = (rayon::current_num_threads() * 4).max(1);
@@ -71,11 +78,13 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
             }
         }
     }
-    d2.par_iter_mut().zip(states.par_iter()).for_each(|(d, &inside)| {
-        // In f64 then rounded once, as SciPy's float64 result cast to float32.
-        let r = f64::from(*d).sqrt() - 0.5;
-        *d = if inside { r as f32 } else { -r as f32 };
-    });
+    d2.par_iter_mut()
+        .zip(states.par_iter())
+        .for_each(|(d, &inside)| {
+            // In f64 then rounded once, as SciPy's float64 result cast to float32.
+            let r = f64::from(*d).sqrt() - 0.5;
+            *d = if inside { r as f32 } else { -r as f32 };
+        });
     Volume { grid, data: d2 }
 }
 
@@ -111,7 +120,12 @@ struct Line {
 
 impl Line {
     fn new(n: usize) -> Line {
-        Line { f: vec![0.0; n], state: vec![false; n], v: vec![0; n], z: vec![0.0; n + 1] }
+        Line {
+            f: vec![0.0; n],
+            state: vec![false; n],
+            v: vec![0; n],
+            z: vec![0.0; n + 1],
+        }
     }
 
     /// Reads each voxel's state and squared distance so far with `get`.
@@ -132,7 +146,13 @@ impl Line {
                 continue;
             }
             // For voxels of `side`, voxels of the other state are features at distance 0.
-            let f = |p: usize| if self.state[p] == side { self.f[p] } else { 0.0 };
+            let f = |p: usize| {
+                if self.state[p] == side {
+                    self.f[p]
+                } else {
+                    0.0
+                }
+            };
             let mut k = 0usize;
             let mut any = false;
             for q in 0..n {
@@ -147,7 +167,9 @@ impl Line {
                     self.z[1] = f64::INFINITY;
                     continue;
                 }
-                let cross = |p: usize| ((fq + (q * q) as f64) - (f(p) + (p * p) as f64)) / (2.0 * (q - p) as f64);
+                let cross = |p: usize| {
+                    ((fq + (q * q) as f64) - (f(p) + (p * p) as f64)) / (2.0 * (q - p) as f64)
+                };
                 let mut s = cross(self.v[k]);
                 while s <= self.z[k] {
                     k -= 1;
@@ -193,17 +215,17 @@ pub fn boundary_voxels(sd: &Volume<f32>) -> Vec<[usize; 3]> {
 /// The sub-voxel point near `voxel` where the density crosses 1/2 (paper 5.3), in continuous
 /// voxel coordinates.
 ///
-/// Along each axis where a 6-neighbour lies on the other side of 1/2, the crossing is placed by
-/// linear interpolation of the two densities; the point is the mean of these crossings. With
-/// no such neighbour, one Newton step along the density's central-difference gradient, at
-/// most one voxel long; with a flat density, the voxel's centre.
+/// Along each axis where a 6-neighbour lies on the other side of 1/2, the crossing is placed
+/// between the two voxels as `crossing` explains; the point is the mean of these crossings. With no
+/// such neighbour, one Newton step along the density's central-difference gradient, at most
+/// one voxel long; with a flat density, the voxel's centre.
 ///
 /// # Panics
 /// If `voxel` lies outside the volume's grid.
 pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
     let grid = density.grid;
     let centre = DVec3::from_array(voxel.map(|x| x as f64));
-    let d0 = f64::from(*density.get(voxel)) - 0.5;
+    let d0 = f64::from(*density.get(voxel));
     let mut sum = DVec3::ZERO;
     let mut count = 0;
     let mut gradient = DVec3::ZERO;
@@ -213,15 +235,15 @@ pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
             (0..grid.dims[axis] as isize).contains(&x).then(|| {
                 let mut n = voxel;
                 n[axis] = x as usize;
-                f64::from(*density.get(n)) - 0.5
+                f64::from(*density.get(n))
             })
         };
         let (below, above) = (neighbour(-1), neighbour(1));
         for (step, d) in [(-1.0, below), (1.0, above)] {
             if let Some(d) = d {
-                if (d > 0.0) != (d0 > 0.0) {
+                if (d > 0.5) != (d0 > 0.5) {
                     let mut p = centre;
-                    p[axis] += step * d0 / (d0 - d);
+                    p[axis] += step * crossing(d0, d);
                     sum += p;
                     count += 1;
                 }
@@ -241,8 +263,26 @@ pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
     if g2 == 0.0 {
         return centre;
     }
-    let step = -d0 * gradient / g2;
+    let step = (0.5 - d0) * gradient / g2;
     centre + step.clamp_length_max(1.0)
+}
+
+/// Where between two adjacent voxels with densities `a` and `b` on either side of 1/2 the
+/// density crosses 1/2, as a fraction of the way from the first to the second.
+///
+/// Two fractional densities are interpolated linearly. A density clamped at 0 or 1 says only
+/// that the voxel is entirely on one side, so the crossing is then read from the fractional
+/// one as a box-filtered plane gives it (density changing by 1 per voxel across the surface):
+/// exact for surfaces perpendicular to the axis.
+fn crossing(a: f64, b: f64) -> f64 {
+    let fractional = |d: f64| d > 0.0 && d < 1.0;
+    let t = match (fractional(a), fractional(b)) {
+        (true, true) => (a - 0.5) / (a - b),
+        (true, false) => (a - 0.5).abs(),
+        (false, true) => 1.0 - (b - 0.5).abs(),
+        (false, false) => 0.5,
+    };
+    t.clamp(0.0, 1.0)
 }
 
 /// The value of `sd` at `p` by trilinear interpolation (bilinear on 2D grids), `p` clamped
@@ -251,7 +291,9 @@ pub fn sample(sd: &Volume<f32>, p: DVec3) -> f32 {
     let (corners, w) = cell(sd, p);
     let mut value = 0.0;
     for (c, &index) in corners.iter().enumerate() {
-        let weight = (0..3).map(|a| if c >> a & 1 == 1 { w[a] } else { 1.0 - w[a] }).product::<f64>();
+        let weight = (0..3)
+            .map(|a| if c >> a & 1 == 1 { w[a] } else { 1.0 - w[a] })
+            .product::<f64>();
         if weight != 0.0 {
             value += weight * f64::from(sd.data[index]);
         }
@@ -288,7 +330,11 @@ fn cell(volume: &Volume<f32>, p: DVec3) -> ([usize; 8], [f64; 3]) {
     let mut w = [0.0; 3];
     for axis in 0..3 {
         let max = grid.dims[axis].saturating_sub(1);
-        let x = if p[axis].is_nan() { 0.0 } else { p[axis].clamp(0.0, max as f64) };
+        let x = if p[axis].is_nan() {
+            0.0
+        } else {
+            p[axis].clamp(0.0, max as f64)
+        };
         lo[axis] = (x.floor() as usize).min(max);
         hi[axis] = (lo[axis] + 1).min(max);
         w[axis] = x - lo[axis] as f64;

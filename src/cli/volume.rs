@@ -39,7 +39,9 @@ pub fn run(args: &VolumeArgs, kind: VolumeKind, progress: Progress) -> anyhow::R
         VolumeKind::Density => density,
         VolumeKind::SignedDistance => {
             progress.stage("signed distance");
-            distance::signed_distance(&distance::inside(&density))
+            let inside = distance::inside(&density);
+            drop(density);
+            distance::signed_distance(&inside)
         }
     };
     volume.save_npy(&args.output)?;

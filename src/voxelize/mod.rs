@@ -8,7 +8,7 @@
 //!
 //! Points are classified as the paper does, by casting grids of parallel rays through the mesh
 //! and counting crossings, but along all three axes, and with the votes of the three rays
-//! combined in the spirit of Nooruddin and Turk (the paper's reference [5]):
+//! combined in the spirit of Nooruddin and Turk (the paper's reference \[5\]):
 //!
 //! * The mesh is first re-oriented consistently (orientation propagated across manifold edges,
 //!   each component keeping the orientation of most of its area, the whole turned outward if
@@ -25,17 +25,26 @@
 //! their mean (a box filter) is the voxel's density; every other voxel gets 0 or 1.
 //!
 //! # Guarantees
-//! * Closed meshes (every edge shared by two triangles), whatever the orientation of their
-//!   triangles, even with many flipped: all rays balance or have even counts, so the result is
-//!   the nonzero rule for consistently orientable meshes and parity otherwise. Overlapping
-//!   closed parts come out as their union, inner shells facing inward stay hollow.
-//! * Open meshes: rays through a hole abstain or disagree, and there the winding number closes
-//!   the hole along a minimal-area-like cap, as `w > 1/2` does (the Stanford bunny comes out
-//!   solid). Points far from holes are decided by the rays alone.
-//! * Self-intersecting meshes: the nonzero rule along balanced rays, the winding number
-//!   elsewhere; regions wound twice count as inside.
-//! * Densities are in `[0, 1]`; features thinner than a voxel whose neighbours all agree are
-//!   not supersampled and may be lost, as with any sampling at the grid's resolution.
+//! * Closed manifold meshes, whatever the orientation of their triangles (any number flipped,
+//!   or all): re-orientation makes every component consistent, every ray balances, and all
+//!   three rays give the exact winding number, so the result is the nonzero rule, exact up to
+//!   floating-point ties. Overlapping closed parts come out as their union; an inner shell that
+//!   faces inward in the file stays a hollow.
+//! * Closed meshes that cannot be oriented consistently (non-manifold edges with flips): rays
+//!   vote by parity; where they disagree the winding number decides.
+//! * Open meshes: rays through a hole abstain or disagree, and there `w > 1/2` closes the hole
+//!   as a soap film spanning its rim would (the Stanford bunny comes out solid); points whose
+//!   rays miss the holes are decided by the rays alone. Missing parts larger than a hole's rim
+//!   can span are not recovered.
+//! * Self-intersecting meshes: the nonzero rule along balanced rays (regions wound twice are
+//!   inside), the winding number elsewhere.
+//! * Densities lie in `[0, 1]` in multiples of `1/s^3`. Features thinner than a voxel whose
+//!   centre and neighbours all fall outside them are not supersampled and may be lost, as with
+//!   any sampling at the grid's resolution.
+//!
+//! Work and memory: the rays cost time proportional to the mesh's projected area times `s^2`;
+//! the classification is parallel over slabs of the grid (rayon). Besides the densities
+//! (4 bytes a voxel), one byte a voxel holds the centres' states while voxelizing.
 
 mod orient;
 mod rays;
@@ -48,7 +57,7 @@ use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
 use crate::mesh::Mesh;
 
-use rays::{Rays, vote};
+use rays::{Rays, plane_axes, vote};
 use winding::Winding;
 
 /// How to voxelize. The default suits the paper's volumes.
@@ -77,57 +86,90 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
     let s = options.supersampling;
     let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
     if vertices.iter().any(|p| !p.is_finite()) {
-        return Err(Error::invalid("voxelize", "the mesh is too far from the grid for its voxel size"));
+        return Err(Error::invalid(
+            "voxelize",
+            "the mesh is too far from the grid for its voxel size",
+        ));
     }
     let oriented = orient::orient(&vertices, &mesh.triangles);
-    let triangles: Vec<[DVec3; 3]> = oriented.iter().map(|t| t.map(|i| vertices[i as usize])).collect();
+    let triangles: Vec<[DVec3; 3]> = oriented
+        .iter()
+        .map(|t| t.map(|i| vertices[i as usize]))
+        .collect();
     let (rays, winding) = rayon::join(
         || [0, 1, 2].map(|axis| Rays::cast(axis, &triangles, grid.dims, s)),
         || Winding::new(triangles.clone()),
     );
     let classifier = Classifier { rays, winding, s };
-    let centre: Vec<bool> = (0..grid.len())
-        .into_par_iter()
-        .map(|index| {
-            let [i, j, k] = grid.voxel(index);
-            let h = (s - 1) / 2;
-            classifier.inside([i * s + h, j * s + h, k * s + h])
-        })
-        .collect();
-    let data = (0..grid.len())
-        .into_par_iter()
-        .map(|index| {
-            let voxel = grid.voxel(index);
-            if at_surface(grid, &centre, voxel) {
-                classifier.density(voxel)
-            } else {
-                f32::from(u8::from(centre[index]))
+    let [_, ny, nz] = grid.dims;
+    let mut centre = vec![false; grid.len()];
+    centre
+        .par_chunks_mut(ny * nz)
+        .enumerate()
+        .for_each(|(i, slab)| {
+            for j in 0..ny {
+                for k in 0..nz {
+                    slab[j * nz + k] = classifier.centre_inside([i, j, k]);
+                }
             }
-        })
-        .collect();
+        });
+    let mut data = vec![0.0f32; grid.len()];
+    data.par_chunks_mut(ny * nz)
+        .enumerate()
+        .for_each(|(i, slab)| {
+            for j in 0..ny {
+                for k in 0..nz {
+                    let voxel = [i, j, k];
+                    slab[j * nz + k] = if at_surface(grid, &centre, voxel) {
+                        classifier.density(voxel)
+                    } else {
+                        f32::from(u8::from(centre[grid.index(voxel)]))
+                    };
+                }
+            }
+        });
     Ok(Volume { grid: *grid, data })
 }
 
 fn check(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<()> {
     let s = options.supersampling;
     if s % 2 == 0 || !(1..=15).contains(&s) {
-        return Err(Error::invalid("voxelize", format!("supersampling must be odd and in 1..=15, not {s}")));
+        return Err(Error::invalid(
+            "voxelize",
+            format!("supersampling must be odd and in 1..=15, not {s}"),
+        ));
     }
     if mesh.triangles.is_empty() {
         return Err(Error::invalid("voxelize", "the mesh has no triangles"));
     }
     let n = mesh.vertices.len();
-    if let Some(t) = mesh.triangles.iter().position(|t| t.iter().any(|&i| i as usize >= n)) {
-        return Err(Error::invalid("voxelize", format!("triangle {t} refers to a vertex beyond the {n} vertices")));
+    if let Some(t) = mesh
+        .triangles
+        .iter()
+        .position(|t| t.iter().any(|&i| i as usize >= n))
+    {
+        return Err(Error::invalid(
+            "voxelize",
+            format!("triangle {t} refers to a vertex beyond the {n} vertices"),
+        ));
     }
     if let Some(v) = mesh.vertices.iter().position(|p| !p.is_finite()) {
-        return Err(Error::invalid("voxelize", format!("vertex {v} has a coordinate that is not a finite number")));
+        return Err(Error::invalid(
+            "voxelize",
+            format!("vertex {v} has a coordinate that is not a finite number"),
+        ));
     }
     if grid.is_empty() || !(grid.voxel_size.is_finite() && grid.voxel_size > 0.0) {
-        return Err(Error::invalid("voxelize", "the grid has no voxels or no positive voxel size"));
+        return Err(Error::invalid(
+            "voxelize",
+            "the grid has no voxels or no positive voxel size",
+        ));
     }
     if grid.dims.iter().any(|&d| d > Grid::MAX_AXIS) {
-        return Err(Error::invalid("voxelize", format!("the grid exceeds {} voxels along an axis", Grid::MAX_AXIS)));
+        return Err(Error::invalid(
+            "voxelize",
+            format!("the grid exceeds {} voxels along an axis", Grid::MAX_AXIS),
+        ));
     }
     Ok(())
 }
@@ -150,49 +192,88 @@ fn at_surface(grid: &Grid, centre: &[bool], voxel: [usize; 3]) -> bool {
     })
 }
 
-/// Classifies points of the fine lattice (grid coordinates times `s`, plus `(s - 1) / 2`).
+/// Classifies points of the voxels' sub-lattices: sample `b` (0..s) along an axis of voxel `i`
+/// lies at grid coordinate `i + (b - h) / s`, `h = (s - 1) / 2`.
 struct Classifier {
     rays: [Rays; 3],
     winding: Winding,
     s: usize,
 }
 
-impl Classifier {
-    /// The fine lattice point's position in grid coordinates.
-    fn position(&self, f: [usize; 3]) -> DVec3 {
-        let h = ((self.s - 1) / 2) as f64;
-        DVec3::from_array(f.map(|x| (x as f64 - h) / self.s as f64))
+/// The votes of the rays at one point.
+#[derive(Debug, Clone, Copy, Default)]
+struct Votes {
+    inside: u8,
+    outside: u8,
+}
+
+impl Votes {
+    fn add(&mut self, vote: Option<bool>) {
+        match vote {
+            Some(true) => self.inside += 1,
+            Some(false) => self.outside += 1,
+            None => {}
+        }
     }
 
-    /// Whether fine lattice point `f` is inside: the rays' votes, the winding number where
-    /// they are too few or disagree.
-    fn inside(&self, f: [usize; 3]) -> bool {
-        let p = self.position(f);
-        let (mut yes, mut no) = (0, 0);
+    /// The verdict when at least two rays vote and all agree.
+    fn verdict(self) -> Option<bool> {
+        match (self.inside, self.outside) {
+            (n, 0) if n >= 2 => Some(true),
+            (0, n) if n >= 2 => Some(false),
+            _ => None,
+        }
+    }
+}
+
+impl Classifier {
+    /// Whether `p` (grid coordinates) is inside, given the rays' votes there: their verdict,
+    /// or the winding number where they are too few or disagree.
+    fn decide(&self, votes: Votes, p: DVec3) -> bool {
+        votes.verdict().unwrap_or_else(|| self.winding.at(p) > 0.5)
+    }
+
+    /// Whether the centre of `voxel` is inside.
+    fn centre_inside(&self, voxel: [usize; 3]) -> bool {
+        let h = (self.s - 1) / 2;
+        let centre_ray = h * self.s + h;
+        let mut votes = Votes::default();
         for (axis, rays) in self.rays.iter().enumerate() {
-            match vote(rays.ray(f, self.s), p[axis]) {
-                Some(true) => yes += 1,
-                Some(false) => no += 1,
-                None => {}
-            }
+            let (u, v) = plane_axes(axis);
+            let hits = rays.ray(voxel[u], voxel[v], centre_ray);
+            votes.add(vote(hits, voxel[axis] as f64));
         }
-        match (yes, no) {
-            (y, 0) if y >= 2 => true,
-            (0, n) if n >= 2 => false,
-            _ => self.winding.at(p) > 0.5,
-        }
+        self.decide(votes, DVec3::from_array(voxel.map(|x| x as f64)))
+    }
+
+    /// The offset of sub-sample `b` from its voxel's centre.
+    fn offset(&self, b: usize) -> f64 {
+        (b as f64 - ((self.s - 1) / 2) as f64) / self.s as f64
     }
 
     /// The fraction of the voxel's `s^3` samples inside.
-    fn density(&self, [i, j, k]: [usize; 3]) -> f32 {
+    fn density(&self, voxel: [usize; 3]) -> f32 {
         let s = self.s;
-        let mut count = 0usize;
-        for a in 0..s {
-            for b in 0..s {
-                for c in 0..s {
-                    count += usize::from(self.inside([i * s + a, j * s + b, k * s + c]));
+        let mut votes = vec![Votes::default(); s * s * s];
+        for (axis, rays) in self.rays.iter().enumerate() {
+            let (u, v) = plane_axes(axis);
+            for bu in 0..s {
+                for bv in 0..s {
+                    let hits = rays.ray(voxel[u], voxel[v], bu * s + bv);
+                    for ba in 0..s {
+                        let mut b = [0; 3];
+                        (b[axis], b[u], b[v]) = (ba, bu, bv);
+                        let x = voxel[axis] as f64 + self.offset(ba);
+                        votes[(b[0] * s + b[1]) * s + b[2]].add(vote(hits, x));
+                    }
                 }
             }
+        }
+        let mut count = 0usize;
+        for (n, &v) in votes.iter().enumerate() {
+            let b = [n / (s * s), n / s % s, n % s];
+            let p = DVec3::from_array(std::array::from_fn(|a| voxel[a] as f64 + self.offset(b[a])));
+            count += usize::from(self.decide(v, p));
         }
         count as f32 / (s * s * s) as f32
     }

@@ -18,10 +18,16 @@ pub(crate) fn orient(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]
     let welded = weld(vertices, triangles);
     let neighbours = manifold_neighbours(&welded);
     let (flip, component) = propagate(&neighbours);
-    let area: Vec<f64> = triangles.iter().map(|t| vector_area(vertices, *t).length()).collect();
+    let area: Vec<f64> = triangles
+        .iter()
+        .map(|t| vector_area(vertices, *t).length())
+        .collect();
     let flip = keep_majority(&flip, &component, &area);
-    let mut oriented: Vec<[u32; 3]> =
-        triangles.iter().zip(&flip).map(|(&[a, b, c], &f)| if f { [a, c, b] } else { [a, b, c] }).collect();
+    let mut oriented: Vec<[u32; 3]> = triangles
+        .iter()
+        .zip(&flip)
+        .map(|(&[a, b, c], &f)| if f { [a, c, b] } else { [a, b, c] })
+        .collect();
     let centre = vertices.iter().copied().sum::<DVec3>() / vertices.len().max(1) as f64;
     let volume: f64 = oriented
         .iter()
@@ -54,7 +60,10 @@ fn weld(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
             *first.entry(key).or_insert(i as u32)
         })
         .collect();
-    triangles.iter().map(|t| t.map(|i| canonical[i as usize])).collect()
+    triangles
+        .iter()
+        .map(|t| t.map(|i| canonical[i as usize]))
+        .collect()
 }
 
 /// For every triangle, its neighbours across manifold edges and whether the neighbour
@@ -121,7 +130,9 @@ fn keep_majority(flip: &[bool], component: &[u32], area: &[f64]) -> Vec<bool> {
     for t in 0..flip.len() {
         balance[component[t] as usize] += if flip[t] { area[t] } else { -area[t] };
     }
-    (0..flip.len()).map(|t| flip[t] ^ (balance[component[t] as usize] > 0.0)).collect()
+    (0..flip.len())
+        .map(|t| flip[t] ^ (balance[component[t] as usize] > 0.0))
+        .collect()
 }
 
 #[cfg(test)]
@@ -135,7 +146,9 @@ mod tests {
     }
 
     fn signed_volume(v: &[DVec3], t: &[[u32; 3]]) -> f64 {
-        t.iter().map(|t| v[t[0] as usize].dot(v[t[1] as usize].cross(v[t[2] as usize]))).sum()
+        t.iter()
+            .map(|t| v[t[0] as usize].dot(v[t[1] as usize].cross(v[t[2] as usize])))
+            .sum()
     }
 
     #[test]

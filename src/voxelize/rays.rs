@@ -20,17 +20,19 @@ use crate::geometry::DVec3;
 pub(crate) struct Hit {
     /// Where along the ray, in grid coordinates.
     pub t: f64,
-    /// The sub-ray of the column.
+    /// The sub-ray of the column (needed only while sorting).
     pub sub: u8,
     /// +1 if the ray enters the (re-oriented) mesh here going forward, -1 if it leaves.
     pub enter: i8,
 }
 
-/// Every crossing of the rays along one axis, grouped by coarse column.
+/// Every crossing of the rays along one axis, grouped by coarse column and sub-ray.
 pub(crate) struct Rays {
-    axis: usize,
     n_v: usize,
-    /// Hits of column `u * n_v + v` are `hits[start[c]..start[c + 1]]`, sorted by (sub, t).
+    /// Sub-rays per column, `s * s`.
+    subs: usize,
+    /// Hits of sub-ray `r` of column `c = u * n_v + v` are `hits[start[i]..start[i + 1]]`
+    /// with `i = c * subs + r`, sorted along the ray.
     start: Vec<usize>,
     hits: Vec<Hit>,
 }
@@ -51,7 +53,12 @@ impl Rays {
         // Lattice lines a triangle's projection covers along one axis, clamped to the grid.
         let span = |tri: &[DVec3; 3], axis: usize, n: usize| -> Option<(usize, usize)> {
             let lo = tri.iter().map(|p| p[axis]).fold(f64::INFINITY, f64::min) * sf + h;
-            let hi = tri.iter().map(|p| p[axis]).fold(f64::NEG_INFINITY, f64::max) * sf + h;
+            let hi = tri
+                .iter()
+                .map(|p| p[axis])
+                .fold(f64::NEG_INFINITY, f64::max)
+                * sf
+                + h;
             let (lo, hi) = (lo.ceil().max(0.0), hi.floor().min((n * s) as f64 - 1.0));
             (lo <= hi).then_some((lo as usize, hi as usize))
         };
@@ -71,7 +78,9 @@ impl Rays {
                 let mut found: Vec<(u32, Hit)> = Vec::new();
                 for &t in tris {
                     let tri = &triangles[t as usize];
-                    let (Some((ulo, uhi)), Some((vlo, vhi))) = (span(tri, u, n_u), span(tri, v, n_v)) else {
+                    let (Some((ulo, uhi)), Some((vlo, vhi))) =
+                        (span(tri, u, n_u), span(tri, v, n_v))
+                    else {
                         continue;
                     };
                     let projected = Projected::new(tri, axis);
@@ -85,15 +94,17 @@ impl Rays {
                         }
                     }
                 }
-                found.sort_unstable_by(|(c, x), (d, y)| (c, x.sub).cmp(&(d, y.sub)).then(x.t.total_cmp(&y.t)));
-                let mut counts = vec![0usize; n_v];
-                for (c, _) in &found {
-                    counts[*c as usize] += 1;
+                found.sort_unstable_by(|(c, x), (d, y)| {
+                    (c, x.sub).cmp(&(d, y.sub)).then(x.t.total_cmp(&y.t))
+                });
+                let mut counts = vec![0usize; n_v * s * s];
+                for (c, hit) in &found {
+                    counts[*c as usize * s * s + usize::from(hit.sub)] += 1;
                 }
                 (counts, found.into_iter().map(|(_, hit)| hit).collect())
             })
             .collect();
-        let mut start = Vec::with_capacity(n_u * n_v + 1);
+        let mut start = Vec::with_capacity(n_u * n_v * s * s + 1);
         let mut hits = Vec::with_capacity(per_row.iter().map(|r| r.1.len()).sum());
         start.push(0);
         for (counts, row_hits) in per_row {
@@ -102,23 +113,19 @@ impl Rays {
             }
             hits.extend(row_hits);
         }
-        Rays { axis, n_v, start, hits }
+        Rays {
+            n_v,
+            subs: s * s,
+            start,
+            hits,
+        }
     }
 
-    /// The hits of the ray through fine lattice point `f` (grid coordinates times `s` plus
-    /// `h`, per axis), sorted along the ray.
+    /// The hits of sub-ray `sub` of coarse column `(u, v)`, sorted along the ray.
     #[inline]
-    pub(crate) fn ray(&self, f: [usize; 3], s: usize) -> &[Hit] {
-        let (u, v) = plane_axes(self.axis);
-        let col = (f[u] / s) * self.n_v + f[v] / s;
-        let hits = &self.hits[self.start[col]..self.start[col + 1]];
-        if s == 1 {
-            return hits;
-        }
-        let sub = ((f[u] % s) * s + f[v] % s) as u8;
-        let lo = hits.partition_point(|h| h.sub < sub);
-        let hi = lo + hits[lo..].partition_point(|h| h.sub == sub);
-        &hits[lo..hi]
+    pub(crate) fn ray(&self, u: usize, v: usize, sub: usize) -> &[Hit] {
+        let i = (u * self.n_v + v) * self.subs + sub;
+        &self.hits[self.start[i]..self.start[i + 1]]
     }
 }
 
@@ -161,9 +168,21 @@ impl Projected {
     fn new(tri: &[DVec3; 3], axis: usize) -> Projected {
         let (u, v) = plane_axes(axis);
         let p = tri.map(|c| [c[u], c[v]]);
-        let area = edge_function(p[0], p[1], p[2]) + edge_function(p[1], p[2], p[0]) + edge_function(p[2], p[0], p[1]);
-        let orientation = if area > 0.0 { 1.0 } else if area < 0.0 { -1.0 } else { 0.0 };
-        Projected { p, depth: tri.map(|c| c[axis]), orientation }
+        let area = edge_function(p[0], p[1], p[2])
+            + edge_function(p[1], p[2], p[0])
+            + edge_function(p[2], p[0], p[1]);
+        let orientation = if area > 0.0 {
+            1.0
+        } else if area < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        Projected {
+            p,
+            depth: tri.map(|c| c[axis]),
+            orientation,
+        }
     }
 
     /// Whether the ray through `q` crosses the triangle: where, and whether it enters.
@@ -193,7 +212,11 @@ impl Projected {
 /// edge get the same magnitude, and on the edge itself signed by the perturbation `q + (ε, ε²)`.
 #[inline]
 fn signed_edge(a: [f64; 2], b: [f64; 2], q: [f64; 2]) -> f64 {
-    let (lo, hi, sign) = if (a[0], a[1]) <= (b[0], b[1]) { (a, b, 1.0) } else { (b, a, -1.0) };
+    let (lo, hi, sign) = if (a[0], a[1]) <= (b[0], b[1]) {
+        (a, b, 1.0)
+    } else {
+        (b, a, -1.0)
+    };
     let e = edge_function(lo, hi, q);
     let e = if e != 0.0 {
         e
@@ -201,7 +224,11 @@ fn signed_edge(a: [f64; 2], b: [f64; 2], q: [f64; 2]) -> f64 {
         // d/dq of the edge function along (ε, ε²): -(hi.v - lo.v) ε + (hi.u - lo.u) ε².
         let dv = lo[1] - hi[1];
         let tiny = f64::MIN_POSITIVE;
-        if dv != 0.0 { dv.signum() * tiny } else { (hi[0] - lo[0]).signum() * tiny }
+        if dv != 0.0 {
+            dv.signum() * tiny
+        } else {
+            (hi[0] - lo[0]).signum() * tiny
+        }
     };
     sign * e
 }
@@ -220,16 +247,27 @@ mod tests {
     fn a_ray_through_a_shared_edge_or_vertex_counts_once() {
         // A square in the plane z = 0.5 split along its diagonal, and a fan around its centre.
         let c = |x: f64, y: f64| DVec3::new(x, y, 0.5);
-        let square = [[c(0.0, 0.0), c(2.0, 0.0), c(2.0, 2.0)], [c(0.0, 0.0), c(2.0, 2.0), c(0.0, 2.0)]];
+        let square = [
+            [c(0.0, 0.0), c(2.0, 0.0), c(2.0, 2.0)],
+            [c(0.0, 0.0), c(2.0, 2.0), c(0.0, 2.0)],
+        ];
         let fan: Vec<[DVec3; 3]> = {
             let ring = [c(0.0, 0.0), c(2.0, 0.0), c(2.0, 2.0), c(0.0, 2.0)];
-            (0..4).map(|i| [c(1.0, 1.0), ring[i], ring[(i + 1) % 4]]).collect()
+            (0..4)
+                .map(|i| [c(1.0, 1.0), ring[i], ring[(i + 1) % 4]])
+                .collect()
         };
         for tris in [&square[..], &fan[..]] {
             for q in [[1.0, 1.0], [0.5, 0.5], [1.5, 1.5], [0.0, 0.0], [2.0, 1.0]] {
-                let n = tris.iter().filter(|t| Projected::new(t, 2).cross(q).is_some()).count();
+                let n = tris
+                    .iter()
+                    .filter(|t| Projected::new(t, 2).cross(q).is_some())
+                    .count();
                 let expect = usize::from(q[0] > 0.0 && q[0] < 2.0 && q[1] > 0.0 && q[1] < 2.0);
-                assert!(n == expect || (expect == 0 && n <= 1), "{q:?}: {n} crossings");
+                assert!(
+                    n == expect || (expect == 0 && n <= 1),
+                    "{q:?}: {n} crossings"
+                );
             }
         }
     }

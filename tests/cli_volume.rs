@@ -1,0 +1,132 @@
+//! `implicitize voxelize` and `implicitize sdf` through the binary, on the built-in triceratops.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn triceratops() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj")
+}
+
+fn run(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_implicitize"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn load(path: &Path) -> (Vec<u64>, Vec<f32>) {
+    let bytes = std::fs::read(path).unwrap();
+    let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
+    assert_eq!(npy.order(), npyz::Order::C);
+    (npy.shape().to_vec(), npy.into_vec::<f32>().unwrap())
+}
+
+fn grid_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path.with_extension("json")).unwrap()).unwrap()
+}
+
+#[test]
+fn voxelize_writes_densities_and_the_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("density.npy");
+    let mesh = triceratops();
+    let o = run(&[
+        "voxelize",
+        mesh.to_str().unwrap(),
+        "--resolution",
+        "48",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (shape, data) = load(&out);
+    assert_eq!(*shape.iter().max().unwrap(), 48);
+    assert_eq!(data.len() as u64, shape.iter().product::<u64>());
+    let json = grid_json(&out);
+    let dims: Vec<u64> = json["dims"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d.as_u64().unwrap())
+        .collect();
+    assert_eq!(dims, shape);
+    assert!(
+        json["voxel_size"].as_f64().unwrap() > 0.0 && json["origin"].as_array().unwrap().len() == 3
+    );
+    assert!(data.iter().all(|&d| (0.0..=1.0).contains(&d)));
+    let (full, partial) = (
+        data.iter().filter(|&&d| d == 1.0).count(),
+        data.iter().filter(|&&d| d > 0.0 && d < 1.0).count(),
+    );
+    assert!(
+        full > 1000 && partial > 500,
+        "{full} inside, {partial} partial"
+    );
+    // The margin of the grid is empty.
+    let (ny, nz) = (shape[1] as usize, shape[2] as usize);
+    assert!(data[..ny * nz].iter().all(|&d| d == 0.0));
+}
+
+#[test]
+fn sdf_writes_the_signed_distance_on_an_exact_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sd.npy");
+    let mesh = triceratops();
+    let o = run(&[
+        "sdf",
+        mesh.to_str().unwrap(),
+        "--dims",
+        "40",
+        "24",
+        "20",
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(o.stderr.is_empty() && o.stdout.is_empty());
+    let (shape, sd) = load(&out);
+    assert_eq!(shape, vec![40, 24, 20]);
+    // Boundary voxels sit at +1/2 and their outside neighbours at -1/2; the deepest voxel is
+    // well inside, the corners far outside.
+    assert!(sd.iter().filter(|&&d| d == 0.5).count() > 100);
+    assert!(sd.iter().filter(|&&d| d == -0.5).count() > 100);
+    assert!(sd.iter().cloned().fold(f32::MIN, f32::max) > 1.5);
+    assert!(sd[0] < -3.0 && sd.iter().all(|d| d.is_finite() && (d.abs() >= 0.5)));
+}
+
+#[test]
+fn errors_name_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.obj");
+    let out = dir.path().join("x.npy");
+    let o = run(&[
+        "sdf",
+        missing.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("missing.obj"));
+    let unwritable = dir.path().join("no/such/dir/x.npy");
+    let o = run(&[
+        "voxelize",
+        triceratops().to_str().unwrap(),
+        "--resolution",
+        "20",
+        "-o",
+        unwritable.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("x.npy"));
+    let o = run(&[
+        "voxelize",
+        triceratops().to_str().unwrap(),
+        "--resolution",
+        "3",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("grid"));
+}
