@@ -39,6 +39,9 @@ pub const MAX_RESIDUAL: f64 = 1e-6;
 /// before they count as lying in a lower-dimensional flat (on a line in 2D, a plane in 3D).
 const MIN_FLATNESS: f64 = 1e-9;
 
+/// The most steps of iterative refinement after the LU solve.
+const REFINEMENT_STEPS: usize = 4;
+
 const CONTEXT: &str = "constraints";
 
 impl Implicit {
@@ -273,9 +276,19 @@ fn solve_system(dim: usize, kernel: Kernel, centres: &[f64], values: &[f64]) -> 
     let b = Mat::from_fn(m, 1, |i, _| if i < n { values[i] } else { 0.0 });
     let lu = a.partial_piv_lu();
     let mut x = lu.solve(&b);
-    // One step of iterative refinement recovers the digits lost to the LU's rounding.
-    let r = &b - &a * &x;
-    x += lu.solve(&r);
+    // Iterative refinement recovers the digits lost to the LU's rounding, as long as each step
+    // shrinks the residual.
+    let norm = |r: &Mat<f64>| (0..m).map(|i| r[(i, 0)].abs()).fold(0.0, f64::max);
+    let mut r = &b - &a * &x;
+    for _ in 0..REFINEMENT_STEPS {
+        let before = norm(&r);
+        let next = &x + lu.solve(&r);
+        let r_next = &b - &a * &next;
+        if !(norm(&r_next) < 0.5 * before) {
+            break;
+        }
+        (x, r) = (next, r_next);
+    }
     (0..m).map(|i| x[(i, 0)]).collect()
 }
 
