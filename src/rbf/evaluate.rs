@@ -206,6 +206,7 @@ impl Isa {
     }
 
     /// Whether this CPU can run code compiled for `self`.
+    #[cfg(test)]
     pub fn supported(self) -> bool {
         match (self, Isa::detect()) {
             (Isa::Baseline, _) | (_, Isa::Avx512) => true,
