@@ -119,9 +119,12 @@ fn assert_names_file(path: &Path, message: &str, want: &str) {
     assert!(message.contains(want), "expected {want:?} in {message}");
 }
 
+/// An edit of a model file's JSON.
+type Edit = dyn FnOnce(&mut serde_json::Value);
+
 #[test]
 fn wrong_files_and_versions_are_named_errors() {
-    let cases: Vec<(Box<dyn FnOnce(&mut serde_json::Value)>, &str)> = vec![
+    let cases: Vec<(Box<Edit>, &str)> = vec![
         (
             Box::new(|j| j["version"] = 2.into()),
             "version 2 is not supported",
