@@ -63,6 +63,7 @@ use crate::geometry::DVec3;
 
 pub use csv::{read_constraints, read_points};
 pub use grid::evaluate_on_grid;
+pub use solve::{MAX_RESIDUAL, MIN_SEPARATION};
 
 /// The radial basis function `phi(r)` of a variational implicit function.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
