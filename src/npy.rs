@@ -50,7 +50,7 @@ pub fn read_rows(path: &Path) -> Result<(Vec<f64>, usize)> {
     }
     let bad = |e: std::io::Error| Error::parse(path, None, format!("damaged array data: {e}"));
     let dtype = npy.dtype();
-    let values: Vec<f64> = match dtype.descr().as_str() {
+    let values: Vec<f64> = match dtype.descr().trim_matches('\'') {
         "<f8" => npy.into_vec::<f64>().map_err(bad)?,
         "<f4" => npy.into_vec::<f32>().map_err(bad)?.into_iter().map(f64::from).collect(),
         other => {

@@ -11,6 +11,8 @@ mod common;
 mod fit;
 mod polygonize;
 mod volume;
+mod eval;
+mod solve;
 
 /// Turn polygon meshes into compact, smooth variational implicit surfaces, and use them.
 #[derive(Debug, Parser)]
@@ -36,6 +38,12 @@ enum Command {
     /// The signed distance of a mesh's voxelization, in voxels, inside positive (paper 4.2).
     Sdf(volume::VolumeArgs),
 }
+    /// Solve for the implicit function through constraints in a CSV file, and save the model.
+    Solve(solve::SolveArgs),
+    /// Evaluate a model at points (inside positive, outside negative).
+    Eval(eval::EvalArgs),
+}
+
 
 /// Parses the command line and runs it.
 pub fn run() -> ExitCode {
@@ -47,6 +55,9 @@ pub fn run() -> ExitCode {
         Command::Mesh(args) => polygonize::run(args, progress),
         Command::Voxelize(args) => volume::run(args, volume::VolumeKind::Density, progress),
         Command::Sdf(args) => volume::run(args, volume::VolumeKind::SignedDistance, progress),
+    let result: anyhow::Result<()> = match &cli.command {
+        Command::Solve(args) => solve::run(args, cli.quiet),
+        Command::Eval(args) => eval::run(args, cli.quiet),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -2,25 +2,8 @@
 //!
 //! The fit evaluates the current implicit function over the whole volume every iteration, to
 //! find its boundary voxels and signed distance. Evaluating every voxel is wasteful: far from
-//! the surface the sign does not change. As in the paper:
-//!
-//! 1. the field is sampled at every [`STEP`]th voxel along each axis (plus the last voxel, so
-//!    grids of any size are covered), which cuts the grid into coarse cubes;
-//! 2. every coarse cube whose corners do not all have the same strict sign (all positive or
-//!    all negative), or that has a voxel within [`NEAR_GOAL`] voxels of the goal boundary
-//!    (`|goal_sd| <= 8`), is sampled voxel by voxel;
-//! 3. every other voxel is filled by trilinear interpolation of its cube's corners, which keeps
-//!    their common sign.
-//!
-//! ## What this can miss
-//! A piece of surface that lies entirely inside one coarse cube whose eight corners share a
-//! sign, and more than [`NEAR_GOAL`] voxels from the goal boundary: a small detached component
-//! (smaller than a coarse cube, 4 voxels) or a thin bump poking between corners, far from where
-//! the shape should be. Near the goal boundary, where the fit works, nothing is missed; a stray
-//! component at least one coarse cube across always straddles a corner and is found.
-//!
-//! Values are stored as f32: a volume only needs the sign and the rough size of the value, and
-//! f32 halves the memory of the paper's 200^3 volumes.
+//! the surface the sign does not change. As in the paper, the field is sampled coarsely everywhere and voxel by voxel only where the sign may change or
+//! near the goal boundary; [`evaluate_on_grid`] states the rule and what it can miss.
 
 use rayon::prelude::*;
 
@@ -92,10 +75,24 @@ impl Axis {
     }
 }
 
-/// Evaluates `field` at every voxel of `grid`, coarse to fine as in paper 5.2 (see the module
-/// doc for what that can miss). Values are the field's own (inside positive, outside negative)
-/// as f32. `goal_sd` is the goal's signed distance in voxels on the same grid; without it only
-/// the sign test of the coarse corners decides where to sample finely.
+/// Evaluates `field` at every voxel of `grid`, coarse to fine as in paper 5.2. Values are the
+/// field's own (inside positive, outside negative), stored as f32: a volume needs the sign and
+/// the rough size of the value, and f32 halves the memory of the paper's 200^3 volumes.
+///
+/// 1. The field is sampled at every 4th voxel along each axis (and at the last voxel, so grids
+///    of any size are covered), which cuts the grid into coarse cubes.
+/// 2. Every coarse cube whose eight corners do not all have the same strict sign, or, when
+///    `goal_sd` (the goal's signed distance in voxels, on the same grid) is given, that has a
+///    voxel with `|goal_sd| <= 8`, is sampled voxel by voxel.
+/// 3. Every other voxel is filled by trilinear interpolation of its cube's corners, which keeps
+///    their common sign.
+///
+/// # What this can miss
+/// A piece of surface that lies entirely inside one coarse cube whose eight corners share a
+/// sign, more than 8 voxels from the goal boundary: a detached component smaller than a coarse
+/// cube (4 voxels across), or a thin bump poking between corners, far from where the shape
+/// should be. Near the goal boundary, where the fit works, nothing is missed, and a stray
+/// component at least a coarse cube across always contains a corner and is found.
 ///
 /// # Panics
 /// If `goal_sd` is on a grid of other dimensions than `grid`.

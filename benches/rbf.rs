@@ -1,0 +1,92 @@
+//! Speed of the solve and of evaluation (paper 3.1 and 5.2).
+//!
+//! * `solve/N`: the dense solve for N constraints on a sphere (2/3 boundary, 1/3 exterior).
+//! * `eval_700_at_500k`: the bunny's 700 constraints (tests/data) evaluated at 500,000 random
+//!   points in its bounding box; scripts/bench-rbf.sh compares it with scipy's
+//!   RBFInterpolator on the same constraints.
+//! * `grid_200/N`: coarse-to-fine evaluation over a 200^3 grid of a sphere model with N
+//!   constraints, with the goal shell, as the fit runs it every iteration.
+
+use std::path::Path;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use implicitize::rbf::{evaluate_on_grid, read_constraints};
+use implicitize::{Aabb, Constraint, DVec3, Grid, Implicit, Kernel, Resolution, Volume};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// `n` constraints on the unit sphere (Fibonacci lattice): two thirds on it (value 0), one
+/// third 0.1 outside it (value -0.1). scripts/bench-rbf.sh builds the same set for scipy.
+fn sphere_constraints(n: usize) -> Vec<Constraint> {
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let (r, phi) = ((1.0 - z * z).sqrt(), i as f64 * 2.399_963_229_728_653);
+            let (scale, value) = if i % 3 == 2 { (1.1, -0.1) } else { (1.0, 0.0) };
+            Constraint::new(
+                &[scale * r * phi.cos(), scale * r * phi.sin(), scale * z],
+                value,
+            )
+        })
+        .collect()
+}
+
+fn solve(c: &mut Criterion) {
+    let mut group = c.benchmark_group("solve");
+    group.sample_size(10);
+    for n in [500, 1500, 2000, 5000] {
+        let constraints = sphere_constraints(n);
+        group.bench_function(n.to_string(), |b| {
+            b.iter(|| Implicit::solve(3, Kernel::ThinPlate, &constraints).unwrap())
+        });
+    }
+    group.finish();
+}
+
+fn eval(c: &mut Criterion) {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bunny_constraints.csv");
+    let (_, constraints) = read_constraints(&data).unwrap();
+    let implicit = Implicit::solve(3, Kernel::ThinPlate, &constraints).unwrap();
+    let positions: Vec<DVec3> = constraints
+        .iter()
+        .map(|c| DVec3::from_slice(c.position()))
+        .collect();
+    let bounds = Aabb::of_points(&positions).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(0);
+    let points: Vec<[f64; 3]> = (0..500_000)
+        .map(|_| {
+            let t = DVec3::new(rng.random(), rng.random(), rng.random());
+            (bounds.min + t * bounds.size()).to_array()
+        })
+        .collect();
+    let mut group = c.benchmark_group("eval");
+    group.sample_size(10);
+    group.bench_function("eval_700_at_500k", |b| b.iter(|| implicit.values3(&points)));
+    group.finish();
+}
+
+fn grid(c: &mut Criterion) {
+    let mut group = c.benchmark_group("grid_200");
+    group.sample_size(10);
+    let bounds = Aabb {
+        min: DVec3::splat(-1.1),
+        max: DVec3::splat(1.1),
+    };
+    let grid = Grid::around(&bounds, Resolution::LongestAxis(200)).unwrap();
+    let goal = Volume {
+        grid,
+        data: (0..grid.len())
+            .map(|v| ((1.0 - grid.position(grid.voxel(v)).length()) / grid.voxel_size) as f32)
+            .collect(),
+    };
+    for n in [700, 1500] {
+        let implicit = Implicit::solve(3, Kernel::ThinPlate, &sphere_constraints(n)).unwrap();
+        group.bench_function(n.to_string(), |b| {
+            b.iter(|| evaluate_on_grid(&implicit, &grid, Some(&goal)))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, solve, eval, grid);
+criterion_main!(benches);

@@ -1,0 +1,67 @@
+//! `implicitize eval`: a model's values at points.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::Args;
+use implicitize::{DVec3, Field, Model, npy, rbf};
+
+/// Arguments of `eval`.
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    /// The model file (JSON), as written by `solve` or `fit`.
+    pub model: PathBuf,
+    /// The points: a .npy array of N x 3 (N x 2 for a 2D model) float32 or float64 values, or a
+    /// CSV file with a header line `x,y,z` (or `x,y`).
+    #[arg(long)]
+    pub points: PathBuf,
+    /// The values to write: a float64 .npy array of length N, positive inside, negative outside.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+fn read_points(path: &Path) -> anyhow::Result<(Vec<f64>, usize)> {
+    let csv = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    Ok(if csv {
+        let (columns, points) = rbf::read_points(path)?;
+        (points, columns)
+    } else {
+        npy::read_rows(path)?
+    })
+}
+
+/// Loads the model and the points, evaluates, and writes the values.
+pub fn run(args: &EvalArgs, quiet: bool) -> anyhow::Result<()> {
+    let model = Model::load(&args.model)?;
+    let (points, columns) = read_points(&args.points)?;
+    let dim = model.implicit().map_or(3, |i| i.dim());
+    if columns != dim {
+        anyhow::bail!(
+            "{}: {columns} coordinates per point, but {} is a {dim}D model",
+            args.points.display(),
+            args.model.display()
+        );
+    }
+    let start = Instant::now();
+    let values = match model.implicit() {
+        Some(implicit) => implicit.values_flat(&points),
+        None => model.values(
+            &points
+                .chunks_exact(3)
+                .map(|p| DVec3::new(p[0], p[1], p[2]))
+                .collect::<Vec<_>>(),
+        ),
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    npy::write(&args.output, &[values.len() as u64], &values)?;
+    if !quiet {
+        eprintln!(
+            "evaluated {} points in {seconds:.3} s; wrote {}",
+            values.len(),
+            args.output.display()
+        );
+    }
+    Ok(())
+}
