@@ -620,6 +620,10 @@ fn bad_cameras_boxes_and_meshes_are_errors_not_panics() {
     assert!(render_field(&ball, &point, &camera, Coloring::Plain, March::default()).is_err());
     assert!(render_field(&ball, &nan, &camera, Coloring::Plain, March::default()).is_err());
     assert!(render_field(&ball, &unit, &camera, Coloring::Plain, March { cells: 0 }).is_err());
+    let too_fine = March {
+        cells: March::MAX_CELLS + 1,
+    };
+    assert!(render_field(&ball, &unit, &camera, Coloring::Plain, too_fine).is_err());
     // A degenerate box still frames; a field that is not a number draws nothing.
     assert!(Camera::framing(&point, 90.0, 90.0, 8, 8).is_ok());
     let nothing = render_field(
