@@ -592,6 +592,9 @@ fn pictures_go_side_by_side() {
     assert_eq!(strip.pixel(1, 3), Some([0, 0, 0, 0]));
     assert_eq!(covered(&strip), 2);
     assert_eq!(Image::side_by_side(&[]).rgba.len(), 0);
+    let with_empty = Image::side_by_side(&[Image::empty(0, 3), a]);
+    assert_eq!((with_empty.width, with_empty.height), (3, 3));
+    assert_eq!(with_empty.pixel(0, 0), Some([1, 2, 3, 255]));
 }
 
 #[test]
