@@ -95,12 +95,7 @@ fn parametric(nu: usize, nv: usize, poles: bool, point: impl Fn(f64, f64) -> DVe
     let mut vertices = Vec::new();
     for j in 0..rows {
         for i in 0..nu {
-            let v = if poles {
-                j as f64 / nv as f64
-            } else {
-                j as f64 / nv as f64
-            };
-            vertices.push(point(i as f64 / nu as f64, v));
+            vertices.push(point(i as f64 / nu as f64, j as f64 / nv as f64));
         }
     }
     let id = |i: usize, j: usize| ((j % rows) * nu + i % nu) as u32;
@@ -223,6 +218,159 @@ fn a_torus_and_its_mesh_show_the_same_silhouette_with_the_hole() {
             assert_eq!(drawn.pixel(x, y).unwrap()[3], 0);
         }
     }
+}
+
+/// The union of two fields: inside either.
+struct Union<A, B>(A, B);
+
+impl<A: Field, B: Field> Field for Union<A, B> {
+    fn value(&self, p: DVec3) -> f64 {
+        self.0.value(p).max(self.1.value(p))
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        if self.0.value(p) >= self.1.value(p) {
+            self.0.gradient(p)
+        } else {
+            self.1.gradient(p)
+        }
+    }
+}
+
+fn merged(a: Mesh, b: Mesh) -> Mesh {
+    let offset = a.vertices.len() as u32;
+    let mut mesh = a;
+    mesh.vertices.extend(b.vertices);
+    mesh.triangles
+        .extend(b.triangles.iter().map(|t| t.map(|v| v + offset)));
+    mesh
+}
+
+/// A flat disc about the y axis: the intersection of a slab and a cylinder, positive inside.
+struct Slab {
+    center: DVec3,
+    radius: f64,
+    half_thickness: f64,
+}
+
+impl Slab {
+    fn parts(&self, p: DVec3) -> (f64, f64) {
+        let q = p - self.center;
+        (
+            self.half_thickness - q.y.abs(),
+            self.radius - (q.x * q.x + q.z * q.z).sqrt(),
+        )
+    }
+
+    /// Top and bottom fans and the side band, `n` segments around.
+    fn mesh(&self, n: usize) -> Mesh {
+        let mut vertices = vec![
+            self.center + self.half_thickness * DVec3::Y,
+            self.center - self.half_thickness * DVec3::Y,
+        ];
+        for i in 0..n {
+            let a = TAU * i as f64 / n as f64;
+            let rim = self.center + self.radius * DVec3::new(a.cos(), 0.0, a.sin());
+            vertices.push(rim + self.half_thickness * DVec3::Y);
+            vertices.push(rim - self.half_thickness * DVec3::Y);
+        }
+        let rim = |i: usize, bottom: u32| (2 + 2 * (i % n)) as u32 + bottom;
+        let mut triangles = Vec::new();
+        for i in 0..n {
+            triangles.push([0, rim(i + 1, 0), rim(i, 0)]);
+            triangles.push([1, rim(i, 1), rim(i + 1, 1)]);
+            triangles.push([rim(i, 0), rim(i + 1, 0), rim(i + 1, 1)]);
+            triangles.push([rim(i, 0), rim(i + 1, 1), rim(i, 1)]);
+        }
+        Mesh {
+            vertices,
+            triangles,
+        }
+    }
+}
+
+impl Field for Slab {
+    fn value(&self, p: DVec3) -> f64 {
+        let (a, b) = self.parts(p);
+        a.min(b)
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        let (a, b) = self.parts(p);
+        let q = p - self.center;
+        if a <= b {
+            DVec3::new(0.0, -q.y.signum(), 0.0)
+        } else {
+            -DVec3::new(q.x, 0.0, q.z).normalize_or_zero()
+        }
+    }
+}
+
+#[test]
+fn thin_and_small_parts_are_not_lost() {
+    // A flat disc 3 march steps thick, off the lattice's planes, seen from the side and above.
+    let slab = Slab {
+        center: DVec3::new(0.1, 0.0123, -0.05),
+        radius: 1.0,
+        half_thickness: 0.023,
+    };
+    let bounds = Aabb {
+        min: slab.center - DVec3::new(1.0, 0.023, 1.0),
+        max: slab.center + DVec3::new(1.0, 0.023, 1.0),
+    };
+    for elevation in [20.0, 45.0] {
+        let camera = Camera::framing(&bounds, 30.0, elevation, 200, 150).unwrap();
+        let field =
+            render_field(&slab, &bounds, &camera, Coloring::Plain, March::default()).unwrap();
+        let drawn = render_mesh(&slab.mesh(256), &camera, Coloring::Plain, Shading::Flat);
+        let iou = intersection_over_union(&field, &drawn);
+        assert!(
+            iou >= 0.98,
+            "thin disc at elevation {elevation}: intersection over union {iou}"
+        );
+    }
+
+    let big = Ball {
+        center: DVec3::ZERO,
+        radius: 1.0,
+    };
+    let small = Ball {
+        center: DVec3::new(1.5, 0.5, 0.3),
+        radius: 0.035,
+    };
+    let bounds = Aabb {
+        min: DVec3::splat(-1.0),
+        max: DVec3::new(1.535, 1.0, 1.0),
+    };
+    let camera = Camera::framing(&bounds, 0.0, 0.0, 300, 200).unwrap();
+    let field = render_field(
+        &Union(big, small),
+        &bounds,
+        &camera,
+        Coloring::Plain,
+        March::default(),
+    )
+    .unwrap();
+    let big = Ball {
+        center: DVec3::ZERO,
+        radius: 1.0,
+    };
+    let small = Ball {
+        center: DVec3::new(1.5, 0.5, 0.3),
+        radius: 0.035,
+    };
+    let drawn = render_mesh(
+        &merged(uv_sphere(&big, 256, 128), uv_sphere(&small, 64, 32)),
+        &camera,
+        Coloring::Plain,
+        Shading::Smooth,
+    );
+    let (x, y, _) = camera.project(small.center);
+    assert_eq!(
+        field.pixel(x as usize, y as usize).unwrap()[3],
+        255,
+        "the small ball shows"
+    );
+    let iou = intersection_over_union(&field, &drawn);
+    assert!(iou >= 0.98, "two balls: intersection over union {iou}");
 }
 
 #[test]
@@ -444,6 +592,9 @@ fn pictures_go_side_by_side() {
     assert_eq!(strip.pixel(1, 3), Some([0, 0, 0, 0]));
     assert_eq!(covered(&strip), 2);
     assert_eq!(Image::side_by_side(&[]).rgba.len(), 0);
+    let with_empty = Image::side_by_side(&[Image::empty(0, 3), a]);
+    assert_eq!((with_empty.width, with_empty.height), (3, 3));
+    assert_eq!(with_empty.pixel(0, 0), Some([1, 2, 3, 255]));
 }
 
 #[test]
@@ -472,6 +623,10 @@ fn bad_cameras_boxes_and_meshes_are_errors_not_panics() {
     assert!(render_field(&ball, &point, &camera, Coloring::Plain, March::default()).is_err());
     assert!(render_field(&ball, &nan, &camera, Coloring::Plain, March::default()).is_err());
     assert!(render_field(&ball, &unit, &camera, Coloring::Plain, March { cells: 0 }).is_err());
+    let too_fine = March {
+        cells: March::MAX_CELLS + 1,
+    };
+    assert!(render_field(&ball, &unit, &camera, Coloring::Plain, too_fine).is_err());
     // A degenerate box still frames; a field that is not a number draws nothing.
     assert!(Camera::framing(&point, 90.0, 90.0, 8, 8).is_ok());
     let nothing = render_field(

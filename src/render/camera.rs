@@ -27,8 +27,8 @@ impl Camera {
     /// orthographic views of the paper's figures without losing depth cues.
     pub const FIELD_OF_VIEW_DEG: f64 = 20.0;
 
-    /// The largest image side accepted.
-    pub const MAX_SIDE: usize = 16384;
+    /// The largest image side accepted (a picture of 8192 x 8192 takes 256 MB).
+    pub const MAX_SIDE: usize = 8192;
 
     /// The fraction of the frame the box may fill along its tighter axis.
     const FILL: f64 = 0.92;

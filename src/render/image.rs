@@ -30,7 +30,8 @@ impl Image {
         }
     }
 
-    /// The pixel at column `x`, row `y`, or `None` outside the picture.
+    /// The pixel at column `x`, row `y`, or `None` outside the picture (or past the end of a
+    /// `rgba` shorter than its size says).
     pub fn pixel(&self, x: usize, y: usize) -> Option<[u8; 4]> {
         if x >= self.width || y >= self.height {
             return None;
@@ -57,8 +58,13 @@ impl Image {
         let height = images.iter().map(|im| im.height).max().unwrap_or(0);
         let mut out = Image::empty(width, height);
         let mut left = 0;
-        for im in images {
-            for (y, row) in im.rgba.chunks_exact(im.width * 4).enumerate() {
+        for im in images.iter().filter(|im| im.width > 0) {
+            for (y, row) in im
+                .rgba
+                .chunks_exact(im.width * 4)
+                .take(im.height)
+                .enumerate()
+            {
                 let start = (y * width + left) * 4;
                 out.rgba[start..start + row.len()].copy_from_slice(row);
             }

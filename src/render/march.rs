@@ -5,13 +5,17 @@
 //! through a lattice of exact field samples whose spacing `h` is the march step, and the root
 //! where the field turns from outside (<= 0) to inside (> 0) is refined with the exact function:
 //!
-//! 1. **Lattice, coarse to fine.** The field is sampled at stride `8h` over the bounds (padded by
-//!    two steps), then each cell that may hold the surface is split in eight and its new corners
-//!    sampled, down to stride `h`. A cell may hold the surface when its corner values change
-//!    sign, or when the smallest corner magnitude is within a level-dependent fraction of the
-//!    spread of its corner values (a linear estimate of the field's variation inside it). All
-//!    samples of a level are computed in one batch with [`Field::values`]. Samples are stored as
-//!    `f32` (they only locate the root; refinement uses `f64`).
+//! 1. **Lattice, coarse to fine.** The field is sampled at the corners and centres of cells
+//!    of side `8h` over the bounds (padded by two steps), then each cell that may hold the
+//!    surface is split in eight and its new corners sampled, down to cells of side `h`. A cell
+//!    may hold the surface when its samples change sign, or when its smallest corner magnitude
+//!    is within a margin: for the coarse cells their spread of sample values, for finer ones
+//!    half the largest gap between the parent cell's trilinear interpolant and the samples that
+//!    split it (an a-posteriori bound on the interpolation error, which shrinks about fourfold
+//!    per halving, doubled for safety). So the band of sampled cells stays one or two cells
+//!    thick where the field is smooth and widens where it bends. Each level is one batch for
+//!    [`Field::values`]. Samples are stored as `f32`: they only locate the root, which is then
+//!    refined in `f64`.
 //! 2. **Marching.** Each pixel's ray is clipped to the lattice box, walks the 8h blocks that hold
 //!    a sign change and, inside them, the cells of side `h`; the field along the ray is the
 //!    trilinear interpolant of the samples, checked at three sub-steps per cell. The first
@@ -24,10 +28,12 @@
 //!    surface cell.
 //!
 //! Guarantee: a pixel is covered exactly when the trilinear interpolant of exact samples at
-//! spacing `h` turns positive along its ray inside the padded bounds; surfaces thinner than about
-//! `h`, or small closed pieces between samples that the subdivision test rejects, can be missed,
-//! as with any march at step `h`. Where the inside reaches the padded box, the box face is drawn
-//! (the bounds clip the shape), decided on the `8h` samples.
+//! spacing `h` turns positive along its ray inside the padded bounds, and its shading is the
+//! function's own gradient at the refined hit. Parts thinner than about `h` (a tapering rim or
+//! tip) can be lost or shortened, as with any march at step `h`, and sharp creases are rounded
+//! by about `h`; raise [`March::cells`] for those (the sampling cost grows with its square).
+//! Where the inside reaches the padded box, the box face is drawn (the bounds clip the shape),
+//! decided on the `8h` samples.
 
 use rayon::prelude::*;
 
@@ -48,24 +54,25 @@ pub struct March {
 }
 
 impl Default for March {
-    /// 160 cells along the longest side (the step is 1/160 of it).
+    /// 128 cells along the longest side (the step is 1/128 of it).
     fn default() -> Self {
-        March { cells: 160 }
+        March { cells: 128 }
     }
 }
 
 impl March {
-    /// The largest number of cells accepted along the longest side.
-    pub const MAX_CELLS: usize = 2048;
+    /// The largest number of cells accepted along the longest side. The samples are kept in a
+    /// dense `f32` array of `(cells + 1)^3` at most: 8.6 MB at the default, 540 MB at this limit.
+    pub const MAX_CELLS: usize = 512;
 }
 
 /// Cells of side `h` per block side.
 const BLOCK: usize = 8;
 
-/// How close to zero, relative to the spread of its corner values, a cell of stride 8, 4 and 2
-/// must come to be split further. Coarse cells are tested loosely (the linear estimate is poor
-/// there); at stride 2 it is accurate.
-const SPLIT_TOLERANCE: [(usize, f32); 3] = [(8, 1.5), (4, 1.0), (2, 0.5)];
+/// How close to zero, relative to the spread of its corner values, a coarse cell whose corners
+/// agree in sign must come to be split: loosely, as nothing is known yet of the field's
+/// curvature at that scale.
+const COARSE_TOLERANCE: f32 = 1.0;
 
 /// Sub-steps at which the interpolant is checked inside one cell.
 const SUB_STEPS: usize = 3;
@@ -93,10 +100,8 @@ impl Lattice {
     ) -> Result<Lattice> {
         let size = bounds.size();
         let longest = size.max_element();
-        if !(bounds.min.is_finite() && bounds.max.is_finite())
-            || !(longest > 0.0)
-            || size.min_element() < 0.0
-        {
+        let finite = bounds.min.is_finite() && bounds.max.is_finite();
+        if !finite || longest <= 0.0 || size.min_element() < 0.0 {
             return Err(Error::invalid(
                 "render",
                 format!("cannot march through the box {bounds:?}"),
@@ -173,41 +178,80 @@ impl Lattice {
     }
 
     /// Samples coarse to fine, then marks the blocks whose cells change sign.
+    ///
+    /// Each cell carries the margin within which its smallest corner magnitude must fall for
+    /// the cell to be split although its corners agree in sign: for the coarse cells a fraction
+    /// of their corner spread, for finer ones half the largest gap between the parent's
+    /// interpolant and the new samples (the interpolation error, which drops about fourfold
+    /// per halving, doubled for safety).
     fn build<F: Field + ?Sized>(&mut self, field: &F) {
         let coarse = self.cells.map(|c| c / BLOCK);
-        let mut cells: Vec<[usize; 3]> = Vec::new();
+        let mut cells: Vec<([usize; 3], f32)> = Vec::new();
         for i in 0..coarse[0] {
             for j in 0..coarse[1] {
                 for k in 0..coarse[2] {
-                    cells.push([i * BLOCK, j * BLOCK, k * BLOCK]);
+                    cells.push(([i * BLOCK, j * BLOCK, k * BLOCK], f32::NAN));
                 }
             }
         }
-        let grid = |cells: &[[usize; 3]], stride: usize, n: usize| -> Vec<[usize; 3]> {
-            cells
+        let mut points = sub_lattice(&cells, BLOCK, 2);
+        points.extend(cells.iter().map(|&(c, _)| c.map(|x| x + BLOCK / 2)));
+        self.fill(field, points);
+        for c in &mut cells {
+            // The centre sample also splits a cell whose corners straddle a thin part.
+            let centre = self.values[self.point_index(c.0.map(|x| x + BLOCK / 2))];
+            let v = self.corners(c.0, BLOCK);
+            let (lo, hi) = v
                 .iter()
-                .flat_map(|&[i, j, k]| {
-                    (0..n * n * n).map(move |c| {
-                        let (a, b, d) = (c / (n * n), (c / n) % n, c % n);
-                        [i + stride * a, j + stride * b, k + stride * d]
-                    })
-                })
-                .collect()
-        };
-        self.fill(field, grid(&cells, BLOCK, 2));
-        for (stride, tolerance) in SPLIT_TOLERANCE {
-            cells.retain(|&c| may_hold_surface(&self.corners(c, stride), tolerance));
-            let half = stride / 2;
-            self.fill(field, grid(&cells, half, 3));
-            cells = grid(&cells, half, 2);
+                .fold((centre, centre), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+            c.1 = if (centre > 0.0) != (v[0] > 0.0) {
+                f32::INFINITY
+            } else {
+                COARSE_TOLERANCE * (hi - lo)
+            };
         }
-        for c in cells {
+        let mut stride = BLOCK;
+        while stride > 1 {
+            cells.retain(|&(c, margin)| {
+                let v = self.corners(c, stride);
+                changes_sign(&v) || v.iter().fold(f32::MAX, |m, &x| m.min(x.abs())) <= margin
+            });
+            let half = stride / 2;
+            self.fill(field, sub_lattice(&cells, half, 3));
+            cells = cells
+                .iter()
+                .flat_map(|&(c, _)| {
+                    let margin = 0.5 * self.interpolation_gap(c, stride);
+                    sub_lattice(&[(c, margin)], half, 2)
+                        .into_iter()
+                        .map(move |child| (child, margin))
+                })
+                .collect();
+            stride = half;
+        }
+        for (c, _) in cells {
             if changes_sign(&self.corners(c, 1)) {
                 let b = c.map(|x| x / BLOCK);
-                let coarse_index = (b[0] * coarse[1] + b[1]) * coarse[2] + b[2];
-                self.blocks[coarse_index] = true;
+                self.blocks[(b[0] * coarse[1] + b[1]) * coarse[2] + b[2]] = true;
             }
         }
+    }
+
+    /// The largest gap between the samples at the corners, edge midpoints, face centres and
+    /// centre of the cell of side `stride` at `c` and its trilinear interpolant.
+    fn interpolation_gap(&self, c: [usize; 3], stride: usize) -> f32 {
+        let corners = self.corners(c, stride);
+        let half = stride / 2;
+        let mut gap = 0.0f64;
+        for p in sub_lattice(&[(c, 0.0)], half, 3) {
+            let f = DVec3::new(
+                (p[0] - c[0]) as f64 / stride as f64,
+                (p[1] - c[1]) as f64 / stride as f64,
+                (p[2] - c[2]) as f64 / stride as f64,
+            );
+            gap = gap.max((self.values[self.point_index(p)] as f64 - trilinear(&corners, f)).abs());
+        }
+        gap as f32
     }
 
     /// The lattice coordinates (in cells) of world point `p`.
@@ -337,12 +381,17 @@ fn changes_sign(v: &[f32; 8]) -> bool {
     v.iter().any(|&x| x > 0.0) && v.iter().any(|&x| x <= 0.0)
 }
 
-fn may_hold_surface(v: &[f32; 8], tolerance: f32) -> bool {
-    let (lo, hi) = v
+/// The lattice points `c + stride * (a, b, d)` for `a, b, d < n`, for every cell `c`.
+fn sub_lattice(cells: &[([usize; 3], f32)], stride: usize, n: usize) -> Vec<[usize; 3]> {
+    cells
         .iter()
-        .fold((f32::MAX, f32::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
-    let nearest = v.iter().fold(f32::MAX, |m, &x| m.min(x.abs()));
-    changes_sign(v) || nearest <= tolerance * (hi - lo)
+        .flat_map(|&([i, j, k], _)| {
+            (0..n * n * n).map(move |c| {
+                let (a, b, d) = (c / (n * n), (c / n) % n, c % n);
+                [i + stride * a, j + stride * b, k + stride * d]
+            })
+        })
+        .collect()
 }
 
 /// The trilinear interpolant of corner values (bit 2 = x, bit 1 = y, bit 0 = z) at `f` in

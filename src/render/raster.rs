@@ -152,7 +152,7 @@ fn rows_spanned(t: &Projected, height: usize) -> Option<(usize, usize)> {
     let (lo, hi) = (ys[0].min(ys[1]).min(ys[2]), ys[0].max(ys[1]).max(ys[2]));
     let first = (lo - 0.5).ceil().max(0.0);
     let last = (hi - 0.5).floor().min(height as f64 - 1.0);
-    (first <= last).then(|| (first as usize, last as usize))
+    (first <= last).then_some((first as usize, last as usize))
 }
 
 /// Twice the signed area of triangle `(a, b, p)`.
