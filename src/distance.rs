@@ -19,10 +19,7 @@ use crate::grid::Volume;
 
 /// Inside/outside from densities: inside where the density exceeds 1/2.
 pub fn inside(density: &Volume<f32>) -> Volume<bool> {
-    Volume {
-        grid: density.grid,
-        data: density.data.par_iter().map(|&d| d > 0.5).collect(),
-    }
+    Volume { grid: density.grid, data: density.data.par_iter().map(|&d| d > 0.5).collect() }
 }
 
 /// The exact signed Euclidean distance transform of `inside`, in voxels, inside positive:
@@ -39,21 +36,17 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
         return Volume { grid, data: d2 };
     }
     // Along k: rows are contiguous.
-    d2.par_chunks_mut(nz)
-        .zip(states.par_chunks(nz))
-        .for_each(|(row, state)| {
-            row_distances(state, row);
-        });
+    d2.par_chunks_mut(nz).zip(states.par_chunks(nz)).for_each(|(row, state)| {
+        row_distances(state, row);
+    });
     // Along j: within each i-slab.
-    d2.par_chunks_mut(ny * nz)
-        .zip(states.par_chunks(ny * nz))
-        .for_each(|(slab, state)| {
-            let mut line = Line::new(ny);
-            for k in 0..nz {
-                line.load(|j| (state[j * nz + k], slab[j * nz + k]));
-                line.solve(|j, d| slab[j * nz + k] = d);
-            }
-        });
+    d2.par_chunks_mut(ny * nz).zip(states.par_chunks(ny * nz)).for_each(|(slab, state)| {
+        let mut line = Line::new(ny);
+        for k in 0..nz {
+            line.load(|j| (state[j * nz + k], slab[j * nz + k]));
+            line.solve(|j, d| slab[j * nz + k] = d);
+        }
+    });
     // Along i: lines cross every slab, so j-planes are computed in parallel batches and
     // written back after each batch.
     let batch = (rayon::current_num_threads() * 4).max(1);
@@ -78,13 +71,11 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
             }
         }
     }
-    d2.par_iter_mut()
-        .zip(states.par_iter())
-        .for_each(|(d, &inside)| {
-            // In f64 then rounded once, as SciPy's float64 result cast to float32.
-            let r = f64::from(*d).sqrt() - 0.5;
-            *d = if inside { r as f32 } else { -r as f32 };
-        });
+    d2.par_iter_mut().zip(states.par_iter()).for_each(|(d, &inside)| {
+        // In f64 then rounded once, as SciPy's float64 result cast to float32.
+        let r = f64::from(*d).sqrt() - 0.5;
+        *d = if inside { r as f32 } else { -r as f32 };
+    });
     Volume { grid, data: d2 }
 }
 
@@ -120,12 +111,7 @@ struct Line {
 
 impl Line {
     fn new(n: usize) -> Line {
-        Line {
-            f: vec![0.0; n],
-            state: vec![false; n],
-            v: vec![0; n],
-            z: vec![0.0; n + 1],
-        }
+        Line { f: vec![0.0; n], state: vec![false; n], v: vec![0; n], z: vec![0.0; n + 1] }
     }
 
     /// Reads each voxel's state and squared distance so far with `get`.
@@ -147,11 +133,7 @@ impl Line {
             }
             // For voxels of `side`, voxels of the other state are features at distance 0.
             let f = |p: usize| {
-                if self.state[p] == side {
-                    self.f[p]
-                } else {
-                    0.0
-                }
+                if self.state[p] == side { self.f[p] } else { 0.0 }
             };
             let mut k = 0usize;
             let mut any = false;
@@ -291,9 +273,8 @@ pub fn sample(sd: &Volume<f32>, p: DVec3) -> f32 {
     let (corners, w) = cell(sd, p);
     let mut value = 0.0;
     for (c, &index) in corners.iter().enumerate() {
-        let weight = (0..3)
-            .map(|a| if c >> a & 1 == 1 { w[a] } else { 1.0 - w[a] })
-            .product::<f64>();
+        let weight =
+            (0..3).map(|a| if c >> a & 1 == 1 { w[a] } else { 1.0 - w[a] }).product::<f64>();
         if weight != 0.0 {
             value += weight * f64::from(sd.data[index]);
         }
@@ -330,11 +311,7 @@ fn cell(volume: &Volume<f32>, p: DVec3) -> ([usize; 8], [f64; 3]) {
     let mut w = [0.0; 3];
     for axis in 0..3 {
         let max = grid.dims[axis].saturating_sub(1);
-        let x = if p[axis].is_nan() {
-            0.0
-        } else {
-            p[axis].clamp(0.0, max as f64)
-        };
+        let x = if p[axis].is_nan() { 0.0 } else { p[axis].clamp(0.0, max as f64) };
         lo[axis] = (x.floor() as usize).min(max);
         hi[axis] = (lo[axis] + 1).min(max);
         w[axis] = x - lo[axis] as f64;

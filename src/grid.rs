@@ -77,7 +77,9 @@ impl Grid {
                 check(n)?;
                 let longest = extent.iter().cloned().fold(0.0, f64::max);
                 let h = longest / (n as f64 - free);
-                let dims = extent.map(|e| ((e / h - 1e-9).ceil().max(0.0) as usize + 2 * Self::MARGIN + 1).max(min_dim));
+                let dims = extent.map(|e| {
+                    ((e / h - 1e-9).ceil().max(0.0) as usize + 2 * Self::MARGIN + 1).max(min_dim)
+                });
                 let mut dims = dims;
                 // The longest axis gets exactly n, whatever rounding said.
                 let axis = (0..3).max_by(|&a, &b| extent[a].total_cmp(&extent[b])).unwrap_or(0);
@@ -91,20 +93,16 @@ impl Grid {
                 for &d in &dims {
                     check(d)?;
                 }
-                let h = (0..3)
-                    .map(|a| extent[a] / (dims[a] as f64 - free))
-                    .fold(0.0, f64::max);
+                let h = (0..3).map(|a| extent[a] / (dims[a] as f64 - free)).fold(0.0, f64::max);
                 (dims, h)
             }
         };
         if !(voxel_size.is_finite() && voxel_size > 0.0) {
             return Err(Error::invalid("grid", "the shape has no extent to place a grid around"));
         }
-        let half_span = DVec3::new(
-            (dims[0] - 1) as f64,
-            (dims[1] - 1) as f64,
-            (dims[2] - 1) as f64,
-        ) * (voxel_size * 0.5);
+        let half_span =
+            DVec3::new((dims[0] - 1) as f64, (dims[1] - 1) as f64, (dims[2] - 1) as f64)
+                * (voxel_size * 0.5);
         let origin = bounds.center() - half_span;
         Ok(Grid { dims, origin: origin.to_array(), voxel_size })
     }

@@ -61,9 +61,14 @@ impl Default for RegularityOptions {
 /// "sharp indentations by the bunny's leg" the paper found hardest), and return the smaller of
 /// the two, which is the discrete analogue of the r-regularity definition: a circle of radius r
 /// tangent on either side. The result is clamped to `[min_radius, max_radius]`, in voxels.
-pub fn radius_of_regularity(sd: &Volume<f32>, voxel: [usize; 3], options: &RegularityOptions) -> f32 {
+pub fn radius_of_regularity(
+    sd: &Volume<f32>,
+    voxel: [usize; 3],
+    options: &RegularityOptions,
+) -> f32 {
     let inward = walk(sd, voxel, 1.0, options);
-    let outward = if inward <= options.min_radius { inward } else { walk(sd, voxel, -1.0, options) };
+    let outward =
+        if inward <= options.min_radius { inward } else { walk(sd, voxel, -1.0, options) };
     inward.min(outward).clamp(options.min_radius, options.max_radius) as f32
 }
 
@@ -87,7 +92,11 @@ fn walk(sd: &Volume<f32>, start: [usize; 3], direction: f32, options: &Regularit
 
 /// The neighbour of `voxel` (of 26) where `direction * sd` rises most steeply, with the step's
 /// length, or `None` at a local maximum.
-fn steepest_neighbour(sd: &Volume<f32>, voxel: [usize; 3], direction: f32) -> Option<([usize; 3], f64)> {
+fn steepest_neighbour(
+    sd: &Volume<f32>,
+    voxel: [usize; 3],
+    direction: f32,
+) -> Option<([usize; 3], f64)> {
     const LENGTHS: [f32; 4] = [0.0, 1.0, std::f32::consts::SQRT_2, 1.732_050_8];
     let here = direction * *sd.get(voxel);
     let dims = sd.grid.dims;

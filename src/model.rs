@@ -82,12 +82,7 @@ pub struct Model {
 impl Model {
     /// A model of `implicit`, whose shape lies in `bounds` (mesh units), fitted on `grid`.
     pub fn from_implicit(implicit: Implicit, bounds: Aabb, grid: Option<Grid>) -> Model {
-        Model {
-            shape: Shape::Rbf(implicit),
-            bounds,
-            grid,
-            report: None,
-        }
+        Model { shape: Shape::Rbf(implicit), bounds, grid, report: None }
     }
 
     /// The shape.
@@ -128,10 +123,7 @@ impl Model {
             format: FORMAT.into(),
             version: VERSION,
             sign: SIGN.into(),
-            bounds: BoundsFile {
-                min: self.bounds.min.to_array(),
-                max: self.bounds.max.to_array(),
-            },
+            bounds: BoundsFile { min: self.bounds.min.to_array(), max: self.bounds.max.to_array() },
             grid: self.grid,
             shape: match &self.shape {
                 Shape::Rbf(implicit) => ShapeFile::Rbf(RbfFile::of(implicit)),
@@ -183,17 +175,9 @@ impl Model {
         };
         let [min, max] = [file.bounds.min, file.bounds.max].map(DVec3::from_array);
         if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
-            return Err(Error::invalid(
-                context,
-                "the bounds are not finite with min <= max",
-            ));
+            return Err(Error::invalid(context, "the bounds are not finite with min <= max"));
         }
-        Ok(Model {
-            shape,
-            bounds: Aabb { min, max },
-            grid: file.grid,
-            report: file.report,
-        })
+        Ok(Model { shape, bounds: Aabb { min, max }, grid: file.grid, report: file.report })
     }
 }
 
@@ -299,12 +283,8 @@ impl RbfFile {
                 ),
             ));
         }
-        let constraints = self
-            .centres
-            .iter()
-            .zip(&self.values)
-            .map(|(c, &v)| Constraint::new(c, v))
-            .collect();
+        let constraints =
+            self.centres.iter().zip(&self.values).map(|(c, &v)| Constraint::new(c, v)).collect();
         Implicit::from_parts(
             context,
             self.dimension,

@@ -8,11 +8,7 @@ use npyz::WriterBuilder;
 use crate::error::{Error, Result};
 
 /// Writes `data` as a C-order NumPy array of the given shape.
-pub fn write<T: npyz::AutoSerialize>(
-    path: &Path,
-    shape: &[u64],
-    data: &[T],
-) -> Result<()> {
+pub fn write<T: npyz::AutoSerialize>(path: &Path, shape: &[u64], data: &[T]) -> Result<()> {
     let io = |e: std::io::Error| Error::io(path, e);
     let file = std::fs::File::create(path).map_err(io)?;
     let mut out = BufWriter::new(file);
@@ -46,7 +42,11 @@ pub fn read_rows(path: &Path) -> Result<(Vec<f64>, usize)> {
         }
     };
     if npy.order() != npyz::Order::C {
-        return Err(Error::parse(path, None, "Fortran-order arrays are not supported; save with C order"));
+        return Err(Error::parse(
+            path,
+            None,
+            "Fortran-order arrays are not supported; save with C order",
+        ));
     }
     let bad = |e: std::io::Error| Error::parse(path, None, format!("damaged array data: {e}"));
     let dtype = npy.dtype();

@@ -28,17 +28,37 @@ fn fit_writes_the_model_the_report_and_the_surface() {
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
-    for key in ["iterations", "constraints", "max_error_voxels", "weighted_error", "rms_error_voxels", "timings_s", "dims", "origin", "voxel_size", "per_iteration", "model_bytes", "mesh_bytes"] {
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    for key in [
+        "iterations",
+        "constraints",
+        "max_error_voxels",
+        "weighted_error",
+        "rms_error_voxels",
+        "timings_s",
+        "dims",
+        "origin",
+        "voxel_size",
+        "per_iteration",
+        "model_bytes",
+        "mesh_bytes",
+    ] {
         assert!(report.get(key).is_some(), "the report has no {key}");
     }
     for key in ["boundary", "interior", "exterior"] {
         assert!(report["constraints"][key].as_u64().unwrap() > 0 || key != "boundary");
     }
-    assert_eq!(report["per_iteration"].as_array().unwrap().len() as u64, report["iterations"].as_u64().unwrap());
+    assert_eq!(
+        report["per_iteration"].as_array().unwrap().len() as u64,
+        report["iterations"].as_u64().unwrap()
+    );
     assert!(report["max_error_voxels"].as_f64().unwrap() <= 3.0);
     let model_bytes = report["model_bytes"].as_u64().unwrap();
-    assert!(model_bytes < report["mesh_bytes"].as_u64().unwrap(), "the model is smaller than the mesh");
+    assert!(
+        model_bytes < report["mesh_bytes"].as_u64().unwrap(),
+        "the model is smaller than the mesh"
+    );
     let (mesh, _) = implicitize::mesh::read(&surface).unwrap();
     assert!(mesh.triangles.len() > 1000);
     implicitize::model::Model::load(&model).unwrap();
@@ -63,7 +83,13 @@ fn fit_of_a_flat_mesh_fails_clearly() {
     let dir = tempfile::tempdir().unwrap();
     let flat = dir.path().join("flat.obj");
     std::fs::write(&flat, "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n").unwrap();
-    let out = implicitize().arg("fit").arg(&flat).arg("-o").arg(dir.path().join("m.json")).output().unwrap();
+    let out = implicitize()
+        .arg("fit")
+        .arg(&flat)
+        .arg("-o")
+        .arg(dir.path().join("m.json"))
+        .output()
+        .unwrap();
     assert!(!out.status.success());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("flat.obj"), "{stderr}");

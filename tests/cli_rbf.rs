@@ -4,16 +4,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn implicitize(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_implicitize"))
-        .args(args)
-        .output()
-        .unwrap()
+    Command::new(env!("CARGO_BIN_EXE_implicitize")).args(args).output().unwrap()
 }
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
 }
 
 fn s(path: &Path) -> &str {
@@ -37,11 +32,7 @@ fn solve_then_eval_matches_scipy_on_the_bunny() {
     let model = dir.path().join("bunny.json");
     let out = implicitize(&["solve", s(&data("bunny_constraints.csv")), "-o", s(&model)]);
     assert!(out.status.success(), "{}", stderr(&out));
-    assert!(
-        stderr(&out).contains("solved 700 constraints"),
-        "{}",
-        stderr(&out)
-    );
+    assert!(stderr(&out).contains("solved 700 constraints"), "{}", stderr(&out));
     let values = dir.path().join("values.npy");
     let out = implicitize(&[
         "eval",
@@ -57,11 +48,7 @@ fn solve_then_eval_matches_scipy_on_the_bunny() {
     let ours = read_vector(&values);
     let scipy = read_vector(&data("bunny_scipy_values.npy"));
     let reference = scipy.iter().map(|v| v.abs()).fold(0.0, f64::max);
-    let worst = ours
-        .iter()
-        .zip(&scipy)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let worst = ours.iter().zip(&scipy).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(worst <= 1e-6 * reference, "{worst:e}");
     // float32 points and CSV points give the values at those points.
     let (points, _) = implicitize::npy::read_rows(&data("bunny_points.npy")).unwrap();
@@ -83,11 +70,7 @@ fn solve_then_eval_matches_scipy_on_the_bunny() {
     for points in [&f32_points, &csv_points] {
         let out = implicitize(&["eval", s(&model), "--points", s(points), "-o", s(&values)]);
         assert!(out.status.success(), "{}", stderr(&out));
-        assert!(
-            read_vector(&values) == direct,
-            "{} gives other values",
-            points.display()
-        );
+        assert!(read_vector(&values) == direct, "{} gives other values", points.display());
     }
 }
 
@@ -139,20 +122,13 @@ fn bad_input_gives_one_clear_line_naming_the_file() {
         implicitize(&["solve", s(&csv), "-o", s(&model)]),
         &["bad.csv", "line 3", "not a number"],
     );
-    std::fs::write(
-        &csv,
-        "x,y,z,value\n0,0,0,0\n1,0,0,0\n0,1,0,1\n0,0,1,-1\n1,0,0,1\n",
-    )
-    .unwrap();
+    std::fs::write(&csv, "x,y,z,value\n0,0,0,0\n1,0,0,0\n0,1,0,1\n0,0,1,-1\n1,0,0,1\n").unwrap();
     check(
         implicitize(&["solve", s(&csv), "-o", s(&model)]),
         &["bad.csv", "constraints 2 and 5", "coincide"],
     );
     std::fs::write(&csv, "x,y,z,value\n0,0,0,0\n1,0,0,0\n0,1,0,1\n").unwrap();
-    check(
-        implicitize(&["solve", s(&csv), "-o", s(&model)]),
-        &["bad.csv", "affinely independent"],
-    );
+    check(implicitize(&["solve", s(&csv), "-o", s(&model)]), &["bad.csv", "affinely independent"]);
     // A 2D model and 3D points.
     std::fs::write(&csv, "x,y,value\n0,0,0\n1,0,0\n0,1,1\n1,1,-1\n").unwrap();
     let out = implicitize(&["solve", s(&csv), "-o", s(&model)]);
@@ -169,11 +145,7 @@ fn bad_input_gives_one_clear_line_naming_the_file() {
         ]),
         &["bunny_points.npy", "3 coordinates", "2D model"],
     );
-    std::fs::write(
-        &model,
-        "{\"format\": \"implicitize-model\", \"version\": 9}",
-    )
-    .unwrap();
+    std::fs::write(&model, "{\"format\": \"implicitize-model\", \"version\": 9}").unwrap();
     check(
         implicitize(&[
             "eval",
@@ -185,8 +157,5 @@ fn bad_input_gives_one_clear_line_naming_the_file() {
         ]),
         &["m.json", "version 9"],
     );
-    check(
-        implicitize(&["eval", s(&model), "--points", s(&csv), "-o", s(&values)]),
-        &["m.json"],
-    );
+    check(implicitize(&["eval", s(&model), "--points", s(&csv), "-o", s(&values)]), &["m.json"]);
 }

@@ -8,10 +8,7 @@ fn triceratops() -> PathBuf {
 }
 
 fn run(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_implicitize"))
-        .args(args)
-        .output()
-        .unwrap()
+    Command::new(env!("CARGO_BIN_EXE_implicitize")).args(args).output().unwrap()
 }
 
 fn load(path: &Path) -> (Vec<u64>, Vec<f32>) {
@@ -43,12 +40,8 @@ fn voxelize_writes_densities_and_the_grid() {
     assert_eq!(*shape.iter().max().unwrap(), 48);
     assert_eq!(data.len() as u64, shape.iter().product::<u64>());
     let json = grid_json(&out);
-    let dims: Vec<u64> = json["dims"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|d| d.as_u64().unwrap())
-        .collect();
+    let dims: Vec<u64> =
+        json["dims"].as_array().unwrap().iter().map(|d| d.as_u64().unwrap()).collect();
     assert_eq!(dims, shape);
     assert!(
         json["voxel_size"].as_f64().unwrap() > 0.0 && json["origin"].as_array().unwrap().len() == 3
@@ -58,10 +51,7 @@ fn voxelize_writes_densities_and_the_grid() {
         data.iter().filter(|&&d| d == 1.0).count(),
         data.iter().filter(|&&d| d > 0.0 && d < 1.0).count(),
     );
-    assert!(
-        full > 1000 && partial > 500,
-        "{full} inside, {partial} partial"
-    );
+    assert!(full > 1000 && partial > 500, "{full} inside, {partial} partial");
     // The margin of the grid is empty.
     let (ny, nz) = (shape[1] as usize, shape[2] as usize);
     assert!(data[..ny * nz].iter().all(|&d| d == 0.0));
@@ -100,12 +90,7 @@ fn errors_name_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("missing.obj");
     let out = dir.path().join("x.npy");
-    let o = run(&[
-        "sdf",
-        missing.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = run(&["sdf", missing.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("missing.obj"));
     let unwritable = dir.path().join("no/such/dir/x.npy");

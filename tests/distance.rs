@@ -8,11 +8,7 @@ use implicitize::{DVec3, Grid, Volume};
 use proptest::prelude::*;
 
 fn grid(dims: [usize; 3]) -> Grid {
-    Grid {
-        dims,
-        origin: [0.0; 3],
-        voxel_size: 1.0,
-    }
+    Grid { dims, origin: [0.0; 3], voxel_size: 1.0 }
 }
 
 /// The scipy convention by brute force: distance to the nearest voxel of the other state.
@@ -25,9 +21,7 @@ fn brute_force(v: &Volume<bool>) -> Vec<f32> {
                 .filter(|&b| v.data[b] != v.data[a])
                 .map(|b| {
                     let pb = g.voxel(b);
-                    (0..3)
-                        .map(|k| (pa[k] as f64 - pb[k] as f64).powi(2))
-                        .sum::<f64>()
+                    (0..3).map(|k| (pa[k] as f64 - pb[k] as f64).powi(2)).sum::<f64>()
                 })
                 .fold(f64::INFINITY, f64::min);
             let r = d2.sqrt() - 0.5;
@@ -58,9 +52,7 @@ proptest! {
 fn two_dimensional_and_thin_volumes_equal_brute_force() {
     for dims in [[23, 17, 1], [1, 30, 1], [1, 1, 40], [12, 1, 9], [1, 13, 11]] {
         let g = grid(dims);
-        let data = (0..g.len())
-            .map(|i| (i * 2654435761usize) % 7 < 3)
-            .collect();
+        let data = (0..g.len()).map(|i| (i * 2654435761usize) % 7 < 3).collect();
         let v = Volume { grid: g, data };
         assert_eq!(signed_distance(&v).data, brute_force(&v), "{dims:?}");
     }
@@ -71,26 +63,16 @@ fn a_box_has_its_exact_distances() {
     let g = grid([20, 24, 18]);
     let (lo, hi) = ([5, 6, 4], [12, 17, 13]);
     let is_in = |v: [usize; 3]| (0..3).all(|a| v[a] >= lo[a] && v[a] <= hi[a]);
-    let v = Volume {
-        grid: g,
-        data: (0..g.len()).map(|i| is_in(g.voxel(i))).collect(),
-    };
+    let v = Volume { grid: g, data: (0..g.len()).map(|i| is_in(g.voxel(i))).collect() };
     let sd = signed_distance(&v);
     for i in 0..g.len() {
         let p = g.voxel(i);
         let expect = if is_in(p) {
             // The nearest outside voxel is straight out through the nearest face.
-            (0..3)
-                .map(|a| (p[a] - lo[a] + 1).min(hi[a] + 1 - p[a]))
-                .min()
-                .unwrap() as f64
-                - 0.5
+            (0..3).map(|a| (p[a] - lo[a] + 1).min(hi[a] + 1 - p[a])).min().unwrap() as f64 - 0.5
         } else {
-            let gap = |a: usize| {
-                (lo[a] as f64 - p[a] as f64)
-                    .max(p[a] as f64 - hi[a] as f64)
-                    .max(0.0)
-            };
+            let gap =
+                |a: usize| (lo[a] as f64 - p[a] as f64).max(p[a] as f64 - hi[a] as f64).max(0.0);
             -((gap(0).powi(2) + gap(1).powi(2) + gap(2).powi(2)).sqrt() - 0.5)
         };
         assert_eq!(sd.data[i], expect as f32, "{p:?}");
@@ -103,9 +85,7 @@ fn a_ball_is_within_a_voxel_of_its_true_distance() {
     let (c, r) = (DVec3::splat(20.0), 14.3);
     let v = Volume {
         grid: g,
-        data: (0..g.len())
-            .map(|i| g.position(g.voxel(i)).distance(c) < r)
-            .collect(),
+        data: (0..g.len()).map(|i| g.position(g.voxel(i)).distance(c) < r).collect(),
     };
     let sd = signed_distance(&v);
     for i in 0..g.len() {
@@ -124,11 +104,7 @@ fn uniform_volumes_are_infinitely_far_from_a_surface() {
     for state in [true, false] {
         let v = Volume::filled(grid([4, 5, 6]), state);
         let sd = signed_distance(&v);
-        let expect = if state {
-            f32::INFINITY
-        } else {
-            f32::NEG_INFINITY
-        };
+        let expect = if state { f32::INFINITY } else { f32::NEG_INFINITY };
         assert!(sd.data.iter().all(|&d| d == expect));
     }
 }
@@ -161,19 +137,15 @@ fn boundary_voxels_are_inside_voxels_with_an_outside_neighbour() {
 
 #[test]
 fn inside_is_density_above_one_half() {
-    let v = Volume {
-        grid: grid([5, 1, 1]),
-        data: vec![0.0, 0.5, 0.51, 1.0, 0.2],
-    };
+    let v = Volume { grid: grid([5, 1, 1]), data: vec![0.0, 0.5, 0.51, 1.0, 0.2] };
     assert_eq!(inside(&v).data, vec![false, false, true, true, false]);
 }
 
 /// Box-filtered densities of the half space x < x0 along x.
 fn slab_density(x0: f64, dims: [usize; 3]) -> Volume<f32> {
     let g = grid(dims);
-    let data = (0..g.len())
-        .map(|i| (x0 - (g.voxel(i)[0] as f64 - 0.5)).clamp(0.0, 1.0) as f32)
-        .collect();
+    let data =
+        (0..g.len()).map(|i| (x0 - (g.voxel(i)[0] as f64 - 0.5)).clamp(0.0, 1.0) as f32).collect();
     Volume { grid: g, data }
 }
 
@@ -201,31 +173,18 @@ fn sampling_is_trilinear_and_clamped_and_the_gradient_points_inward() {
     let g = grid([6, 7, 5]);
     // A linear field is reproduced exactly by trilinear interpolation.
     let f = |p: DVec3| 0.5 * p.x - 2.0 * p.y + 0.25 * p.z + 1.0;
-    let v = Volume {
-        grid: g,
-        data: (0..g.len())
-            .map(|i| f(g.position(g.voxel(i))) as f32)
-            .collect(),
-    };
-    for p in [
-        DVec3::new(1.3, 2.7, 3.1),
-        DVec3::new(0.0, 6.0, 4.0),
-        DVec3::new(4.99, 0.01, 2.5),
-    ] {
+    let v =
+        Volume { grid: g, data: (0..g.len()).map(|i| f(g.position(g.voxel(i))) as f32).collect() };
+    for p in [DVec3::new(1.3, 2.7, 3.1), DVec3::new(0.0, 6.0, 4.0), DVec3::new(4.99, 0.01, 2.5)] {
         assert!((f64::from(sample(&v, p)) - f(p)).abs() < 1e-5);
         assert!((gradient(&v, p) - DVec3::new(0.5, -2.0, 0.25)).length() < 1e-5);
     }
-    assert_eq!(
-        sample(&v, DVec3::new(-3.0, 100.0, 2.0)),
-        sample(&v, DVec3::new(0.0, 6.0, 2.0))
-    );
+    assert_eq!(sample(&v, DVec3::new(-3.0, 100.0, 2.0)), sample(&v, DVec3::new(0.0, 6.0, 2.0)));
     // A 2D volume: bilinear, and no z gradient.
     let g2 = grid([6, 7, 1]);
     let v2 = Volume {
         grid: g2,
-        data: (0..g2.len())
-            .map(|i| f(g2.position(g2.voxel(i))) as f32)
-            .collect(),
+        data: (0..g2.len()).map(|i| f(g2.position(g2.voxel(i))) as f32).collect(),
     };
     let p = DVec3::new(2.5, 3.25, 0.7);
     assert!((f64::from(sample(&v2, p)) - f(DVec3::new(2.5, 3.25, 0.0))).abs() < 1e-5);
@@ -235,10 +194,7 @@ fn sampling_is_trilinear_and_clamped_and_the_gradient_points_inward() {
         grid: grid([21, 21, 21]),
         data: (0..21 * 21 * 21)
             .map(|i| {
-                grid([21; 3])
-                    .position(grid([21; 3]).voxel(i))
-                    .distance(DVec3::splat(10.0))
-                    < 6.0
+                grid([21; 3]).position(grid([21; 3]).voxel(i)).distance(DVec3::splat(10.0)) < 6.0
             })
             .collect(),
     };

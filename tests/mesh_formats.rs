@@ -34,10 +34,7 @@ const QUADS: [[u32; 4]; 6] = [
 fn box_mesh() -> Mesh {
     Mesh {
         vertices: box_vertices().into_iter().map(DVec3::from_array).collect(),
-        triangles: QUADS
-            .iter()
-            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-            .collect(),
+        triangles: QUADS.iter().flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]).collect(),
     }
 }
 
@@ -60,9 +57,7 @@ fn is_closed(m: &Mesh) -> bool {
             *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
         }
     }
-    edges
-        .iter()
-        .all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
+    edges.iter().all(|(&(a, b), &n)| n == 1 && edges.get(&(b, a)) == Some(&1))
 }
 
 /// Asserts that `m` is the box, closed and outward-facing, with `vertices` vertices.
@@ -100,15 +95,9 @@ fn read_err(name: &str, bytes: &[u8], place: Option<&str>) -> String {
         Ok((m, _)) => panic!("{name} read as {} triangles", m.triangles.len()),
         Err(e) => e.to_string(),
     };
-    assert!(
-        message.contains(&path.display().to_string()),
-        "no file name in: {message}"
-    );
+    assert!(message.contains(&path.display().to_string()), "no file name in: {message}");
     if let Some(place) = place {
-        assert!(
-            message.contains(&format!("({place})")),
-            "expected ({place}) in: {message}"
-        );
+        assert!(message.contains(&format!("({place})")), "expected ({place}) in: {message}");
     }
     message
 }
@@ -124,10 +113,8 @@ fn box_obj(corner: &str) -> String {
     }
     s += "vt 0 0\nvn 0 0 1\ng sides\nusemtl red\ns off\n";
     for q in QUADS {
-        let corners: Vec<String> = q
-            .iter()
-            .map(|&i| corner.replace("{}", &(i + 1).to_string()))
-            .collect();
+        let corners: Vec<String> =
+            q.iter().map(|&i| corner.replace("{}", &(i + 1).to_string())).collect();
         s += &format!("f {}\n", corners.join(" "));
     }
     s
@@ -163,13 +150,7 @@ fn obj_triangles_and_unused_vertices() {
     s += "v 100 100 100\n"; // used by no face
     let (m, _) = read_ok("box.obj", s.as_bytes());
     assert_eq!(m.vertices.len(), 9);
-    assert_box(
-        &Mesh {
-            vertices: m.vertices[..8].to_vec(),
-            triangles: m.triangles.clone(),
-        },
-        8,
-    );
+    assert_box(&Mesh { vertices: m.vertices[..8].to_vec(), triangles: m.triangles.clone() }, 8);
 }
 
 #[test]
@@ -210,11 +191,7 @@ fn obj_bad_inputs_name_the_file_and_line() {
     let m = read_err("bad.obj", with("f 1 2").as_bytes(), Some(&place));
     assert!(m.contains("at least 3 corners"), "{m}");
     // Forward references are rejected: the index must name a vertex defined above.
-    read_err(
-        "bad.obj",
-        b"f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n",
-        Some("line 1"),
-    );
+    read_err("bad.obj", b"f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n", Some("line 1"));
 }
 
 #[test]
@@ -223,11 +200,7 @@ fn empty_and_flat_meshes_are_errors() {
     assert!(m.contains("empty mesh"), "{m}");
     let m = read_err("points.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n", None);
     assert!(m.contains("empty mesh"), "{m}");
-    let m = read_err(
-        "degenerate.obj",
-        b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\n",
-        None,
-    );
+    let m = read_err("degenerate.obj", b"v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\n", None);
     assert!(m.contains("all 2 triangles are degenerate"), "{m}");
     let square = b"v 0 0 5\nv 1 0 5\nv 1 1 5\nv 0 1 5\nf 1 2 3 4\n";
     let m = read_err("square.obj", square, None);
@@ -249,11 +222,7 @@ fn unknown_formats_and_missing_files_name_the_file() {
 
 #[test]
 fn format_follows_the_extension_without_regard_to_case() {
-    let cases = [
-        ("a.obj", Format::Obj),
-        ("b.PLY", Format::Ply),
-        ("c.Stl", Format::Stl),
-    ];
+    let cases = [("a.obj", Format::Obj), ("b.PLY", Format::Ply), ("c.Stl", Format::Stl)];
     for (name, format) in cases.into_iter().chain([("d.OFF", Format::Off)]) {
         assert_eq!(Format::from_path(Path::new(name)).unwrap(), format);
     }
@@ -289,19 +258,11 @@ enum Num {
 }
 
 impl Num {
-    const ALL_INTEGERS: [Num; 6] = [
-        Num::Char,
-        Num::UChar,
-        Num::Short,
-        Num::UShort,
-        Num::Int,
-        Num::UInt,
-    ];
+    const ALL_INTEGERS: [Num; 6] =
+        [Num::Char, Num::UChar, Num::Short, Num::UShort, Num::Int, Num::UInt];
 
     fn name(self) -> &'static str {
-        [
-            "char", "uchar", "short", "ushort", "int", "uint", "float", "double",
-        ][self as usize]
+        ["char", "uchar", "short", "ushort", "int", "uint", "float", "double"][self as usize]
     }
 
     fn bytes(self, v: f64, big: bool) -> Vec<u8> {
@@ -381,10 +342,7 @@ fn ply(
 }
 
 fn box_faces() -> Vec<Vec<f64>> {
-    QUADS
-        .iter()
-        .map(|q| q.iter().map(|&i| i as f64).collect())
-        .collect()
+    QUADS.iter().map(|q| q.iter().map(|&i| i as f64).collect()).collect()
 }
 
 const ENCODINGS: [&str; 3] = ["ascii", "binary_little_endian", "binary_big_endian"];
@@ -397,12 +355,8 @@ fn ply_every_encoding_position_type_and_index_type_reads_the_box() {
                 for index in Num::ALL_INTEGERS {
                     let bytes = ply(encoding, pos, count, index, &box_vertices(), &box_faces());
                     let (m, _) = read_ok("box.ply", &bytes);
-                    let what = format!(
-                        "{encoding} {} {} {}",
-                        pos.name(),
-                        count.name(),
-                        index.name()
-                    );
+                    let what =
+                        format!("{encoding} {} {} {}", pos.name(), count.name(), index.name());
                     assert_eq!(m, box_mesh(), "{what}");
                 }
             }
@@ -425,48 +379,23 @@ fn ply_bad_inputs_name_the_file_and_place() {
     assert!(m.contains("out of range"), "{m}");
     let mut faces = box_faces();
     faces[0][0] = -1.0;
-    let m = read_err(
-        "bad.ply",
-        &ascii(&faces, &vertices),
-        Some(&format!("line {}", header_lines + 9)),
-    );
+    let m =
+        read_err("bad.ply", &ascii(&faces, &vertices), Some(&format!("line {}", header_lines + 9)));
     assert!(m.contains("out of range"), "{m}");
     // Binary: the sixth face starts after the vertices (8 x 16 bytes) and five faces of
     // 1 + 4 x 4 + 1 bytes.
     let mut faces = box_faces();
     faces[5][2] = 8.0;
-    let bytes = ply(
-        "binary_little_endian",
-        Num::Float,
-        Num::UChar,
-        Num::Int,
-        &vertices,
-        &faces,
-    );
-    let header_bytes = bytes
-        .windows(11)
-        .position(|w| w == b"end_header\n")
-        .unwrap()
-        + 11;
+    let bytes = ply("binary_little_endian", Num::Float, Num::UChar, Num::Int, &vertices, &faces);
+    let header_bytes = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     let place = format!("byte {}", header_bytes + 8 * 16 + 5 * 18);
     let m = read_err("bad.ply", &bytes, Some(&place));
     assert!(m.contains("out of range"), "{m}");
     // A NaN coordinate in the fourth vertex.
     let mut nan = vertices.clone();
     nan[3][1] = f64::NAN;
-    let bytes = ply(
-        "binary_big_endian",
-        Num::Double,
-        Num::UChar,
-        Num::Int,
-        &nan,
-        &box_faces(),
-    );
-    let header_bytes = bytes
-        .windows(11)
-        .position(|w| w == b"end_header\n")
-        .unwrap()
-        + 11;
+    let bytes = ply("binary_big_endian", Num::Double, Num::UChar, Num::Int, &nan, &box_faces());
+    let header_bytes = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     let place = format!("byte {}", header_bytes + 3 * 28);
     let m = read_err("nan.ply", &bytes, Some(&place));
     assert!(m.contains("non-finite y"), "{m}");
@@ -478,19 +407,9 @@ fn ply_bad_inputs_name_the_file_and_place() {
     );
     assert!(m.contains("NaN"), "{m}");
     // Truncated in the binary payload and in the ASCII payload.
-    let bytes = ply(
-        "binary_little_endian",
-        Num::Float,
-        Num::UChar,
-        Num::Int,
-        &vertices,
-        &box_faces(),
-    );
-    let header_bytes = bytes
-        .windows(11)
-        .position(|w| w == b"end_header\n")
-        .unwrap()
-        + 11;
+    let bytes =
+        ply("binary_little_endian", Num::Float, Num::UChar, Num::Int, &vertices, &box_faces());
+    let header_bytes = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
     let cut = header_bytes + 8 * 16 + 2 * 18 + 5;
     let place = format!("byte {}", header_bytes + 8 * 16 + 2 * 18);
     let m = read_err("cut.ply", &bytes[..cut], Some(&place));
@@ -500,23 +419,12 @@ fn ply_bad_inputs_name_the_file_and_place() {
     let m = read_err("cut.ply", &text[..cut], None);
     assert!(m.contains("truncated"), "{m}");
     // A bad header line, a missing coordinate and float indices.
-    let broken = String::from_utf8(text.clone())
-        .unwrap()
-        .replace("element face", "elephant face");
+    let broken = String::from_utf8(text.clone()).unwrap().replace("element face", "elephant face");
     read_err("bad.ply", broken.as_bytes(), Some("line 9"));
-    let no_z = String::from_utf8(text.clone())
-        .unwrap()
-        .replace("property float z\n", "");
+    let no_z = String::from_utf8(text.clone()).unwrap().replace("property float z\n", "");
     let m = read_err("bad.ply", no_z.as_bytes(), None);
     assert!(m.contains("no 'z' property"), "{m}");
-    let float_lists = ply(
-        "ascii",
-        Num::Float,
-        Num::UChar,
-        Num::Float,
-        &vertices,
-        &box_faces(),
-    );
+    let float_lists = ply("ascii", Num::Float, Num::UChar, Num::Float, &vertices, &box_faces());
     let m = read_err("bad.ply", &float_lists, None);
     assert!(m.contains("floating-point"), "{m}");
     let m = read_err("bad.ply", b"plx\n", Some("line 1"));
@@ -529,11 +437,7 @@ fn ply_bad_inputs_name_the_file_and_place() {
 /// The box's triangles as corner positions, as STL stores them.
 fn box_triangles() -> Vec<[[f64; 3]; 3]> {
     let v = box_vertices();
-    box_mesh()
-        .triangles
-        .iter()
-        .map(|t| t.map(|i| v[i as usize]))
-        .collect()
+    box_mesh().triangles.iter().map(|t| t.map(|i| v[i as usize])).collect()
 }
 
 fn stl_ascii(triangles: &[[[f64; 3]; 3]]) -> String {
@@ -570,10 +474,7 @@ fn stl_ascii_and_binary_weld_the_box_closed() {
     let (m, _) = read_ok("box.stl", &stl_binary(b"binary box", &triangles));
     assert_box(&m, 8);
     // Binary files whose header starts with "solid" are still binary.
-    let (m, _) = read_ok(
-        "box.STL",
-        &stl_binary(b"solid box from a CAD program", &triangles),
-    );
+    let (m, _) = read_ok("box.STL", &stl_binary(b"solid box from a CAD program", &triangles));
     assert_box(&m, 8);
     // Upper-case keywords and two solids in one file.
     let two = stl_ascii(&triangles[..6]) + &stl_ascii(&triangles[6..]).to_uppercase();
@@ -585,31 +486,21 @@ fn stl_ascii_and_binary_weld_the_box_closed() {
 fn stl_bad_inputs_name_the_file_and_place() {
     let triangles = box_triangles();
     let binary = stl_binary(b"box", &triangles);
-    let m = read_err(
-        "cut.stl",
-        &binary[..84 + 50 * 4 + 20],
-        Some(&format!("byte {}", 84 + 50 * 4)),
-    );
+    let m =
+        read_err("cut.stl", &binary[..84 + 50 * 4 + 20], Some(&format!("byte {}", 84 + 50 * 4)));
     assert!(m.contains("truncated"), "{m}");
     let mut longer = binary.clone();
     longer.extend([1u8; 7]);
     read_err("long.stl", &longer, Some(&format!("byte {}", 84 + 50 * 12)));
     let mut inf = triangles.clone();
     inf[2][1][0] = f64::INFINITY;
-    let m = read_err(
-        "inf.stl",
-        &stl_binary(b"box", &inf),
-        Some(&format!("byte {}", 84 + 50 * 2 + 24)),
-    );
+    let m =
+        read_err("inf.stl", &stl_binary(b"box", &inf), Some(&format!("byte {}", 84 + 50 * 2 + 24)));
     assert!(m.contains("non-finite x"), "{m}");
     let text = stl_ascii(&triangles);
     let lines: Vec<&str> = text.split_inclusive('\n').collect();
     let cut = lines[..lines.len() - 3].concat();
-    let m = read_err(
-        "cut.stl",
-        cut.as_bytes(),
-        Some(&format!("line {}", lines.len() - 3)),
-    );
+    let m = read_err("cut.stl", cut.as_bytes(), Some(&format!("line {}", lines.len() - 3)));
     assert!(m.contains("truncated"), "{m}");
     let m = read_err(
         "nan.stl",
@@ -617,11 +508,7 @@ fn stl_bad_inputs_name_the_file_and_place() {
         Some("line 4"),
     );
     assert!(m.contains("non-finite"), "{m}");
-    let m = read_err(
-        "bad.stl",
-        text.replacen("endloop", "endlop", 1).as_bytes(),
-        Some("line 7"),
-    );
+    let m = read_err("bad.stl", text.replacen("endloop", "endlop", 1).as_bytes(), Some("line 7"));
     assert!(m.contains("endlop"), "{m}");
     let four = text.replacen("    endloop", "      vertex 1 2 3\n    endloop", 1);
     let m = read_err("bad.stl", four.as_bytes(), Some("line 9"));
@@ -651,12 +538,7 @@ fn box_off(keyword: &str, counts_on_header: bool, vertex_extra: &str) -> String 
 
 #[test]
 fn off_variants_read_the_box() {
-    for (keyword, extra) in [
-        ("OFF", ""),
-        ("COFF", " 255 0 0 255"),
-        ("NOFF", " 0 0 1"),
-        ("", ""),
-    ] {
+    for (keyword, extra) in [("OFF", ""), ("COFF", " 255 0 0 255"), ("NOFF", " 0 0 1"), ("", "")] {
         for counts_on_header in [false, true] {
             if keyword.is_empty() && !counts_on_header {
                 continue;
@@ -672,50 +554,23 @@ fn off_variants_read_the_box() {
 fn off_bad_inputs_name_the_file_and_line() {
     let text = box_off("OFF", false, "");
     // Line 1 comment, 2 OFF, 3 blank, 4 counts, 5..=12 vertices, 13..=18 faces.
-    let m = read_err(
-        "bad.off",
-        text.replace("4 1 3 7 5", "4 1 3 7 8").as_bytes(),
-        Some("line 18"),
-    );
+    let m = read_err("bad.off", text.replace("4 1 3 7 5", "4 1 3 7 8").as_bytes(), Some("line 18"));
     assert!(m.contains("out of range"), "{m}");
-    let m = read_err(
-        "bad.off",
-        text.replacen("10.25", "nan", 1).as_bytes(),
-        Some("line 5"),
-    );
+    let m = read_err("bad.off", text.replacen("10.25", "nan", 1).as_bytes(), Some("line 5"));
     assert!(m.contains("non-finite x"), "{m}");
     let m = read_err(
         "cut.off",
-        text.split_inclusive('\n')
-            .take(9)
-            .collect::<String>()
-            .as_bytes(),
+        text.split_inclusive('\n').take(9).collect::<String>().as_bytes(),
         Some("line 9"),
     );
     assert!(m.contains("after 5 of 8 vertices"), "{m}");
-    let m = read_err(
-        "bad.off",
-        text.replace("OFF", "4OFF").as_bytes(),
-        Some("line 2"),
-    );
+    let m = read_err("bad.off", text.replace("OFF", "4OFF").as_bytes(), Some("line 2"));
     assert!(m.contains("4OFF"), "{m}");
-    let m = read_err(
-        "bad.off",
-        text.replace("OFF", "OFF BINARY").as_bytes(),
-        Some("line 2"),
-    );
+    let m = read_err("bad.off", text.replace("OFF", "OFF BINARY").as_bytes(), Some("line 2"));
     assert!(m.contains("binary OFF"), "{m}");
-    let m = read_err(
-        "bad.off",
-        text.replace("8 6 12", "8").as_bytes(),
-        Some("line 4"),
-    );
+    let m = read_err("bad.off", text.replace("8 6 12", "8").as_bytes(), Some("line 4"));
     assert!(m.contains("counts"), "{m}");
-    let m = read_err(
-        "bad.off",
-        text.replace("4 0 4 6 2", "4 0 4 6").as_bytes(),
-        Some("line 17"),
-    );
+    let m = read_err("bad.off", text.replace("4 0 4 6 2", "4 0 4 6").as_bytes(), Some("line 17"));
     assert!(m.contains("declares 4 corners"), "{m}");
 }
 
@@ -746,11 +601,7 @@ fn writers_round_trip() {
     mesh::write(&path, &m).unwrap();
     let (back, _) = mesh::read(&path).unwrap();
     assert_eq!(back.triangles.len(), m.triangles.len());
-    assert_eq!(
-        back.vertices.len(),
-        8,
-        "STL corners must weld back into shared vertices"
-    );
+    assert_eq!(back.vertices.len(), 8, "STL corners must weld back into shared vertices");
     for t in 0..m.triangles.len() {
         for (a, b) in back.corners(t).iter().zip(m.corners(t)) {
             assert_eq!(*a, b.as_vec3().as_dvec3(), "STL holds positions as f32");
@@ -763,17 +614,10 @@ fn writers_round_trip() {
 fn writing_rejects_bad_meshes_and_unknown_formats() {
     let dir = tempfile::tempdir().unwrap();
     let mut m = box_mesh();
-    let e = mesh::write(&dir.path().join("m.xyz"), &m)
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("m.xyz") && e.contains("unknown mesh format"),
-        "{e}"
-    );
+    let e = mesh::write(&dir.path().join("m.xyz"), &m).unwrap_err().to_string();
+    assert!(e.contains("m.xyz") && e.contains("unknown mesh format"), "{e}");
     m.triangles.push([0, 1, 8]);
-    let e = mesh::write(&dir.path().join("m.obj"), &m)
-        .unwrap_err()
-        .to_string();
+    let e = mesh::write(&dir.path().join("m.obj"), &m).unwrap_err().to_string();
     assert!(e.contains("m.obj") && e.contains("indexes past"), "{e}");
     let e = mesh::write(Path::new("/nonexistent/dir/m.obj"), &box_mesh()).unwrap_err();
     assert!(e.to_string().contains("/nonexistent/dir/m.obj"), "{e}");

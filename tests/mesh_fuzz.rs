@@ -84,11 +84,7 @@ fn read_checked(bytes: &[u8], format: Format) -> Result<bool, TestCaseError> {
         }
         Err(e) => {
             let message = e.to_string();
-            prop_assert!(
-                message.starts_with(&path.display().to_string()),
-                "{}",
-                message
-            );
+            prop_assert!(message.starts_with(&path.display().to_string()), "{}", message);
             prop_assert!(!message.contains('\n'), "not one line: {}", message);
             Ok(false)
         }
@@ -146,10 +142,7 @@ fn truncated_binary_files_are_errors() {
     for (format, bytes) in VALID.iter().cloned() {
         if bytes.contains(&0) {
             for cut in 0..bytes.len() {
-                assert!(
-                    !read_checked(&bytes[..cut], format).unwrap(),
-                    "{format:?} cut at {cut}"
-                );
+                assert!(!read_checked(&bytes[..cut], format).unwrap(), "{format:?} cut at {cut}");
             }
         }
     }
@@ -170,10 +163,7 @@ fn huge_declared_counts_take_no_time() {
     );
     let off = "OFF\n4000000000 4000000000 0\n0 0 0\n";
     let e = mesh::read_bytes(off.as_bytes(), Format::Off, Path::new("huge.off")).unwrap_err();
-    assert!(
-        e.to_string().contains("after 1 of 4000000000 vertices"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("after 1 of 4000000000 vertices"), "{e}");
     let mut stl = vec![0u8; 80];
     stl.extend(u32::MAX.to_le_bytes());
     let e = mesh::read_bytes(&stl, Format::Stl, Path::new("huge.stl")).unwrap_err();

@@ -12,9 +12,7 @@ fn sample_implicit(dim: usize, kernel: Kernel, seed: u64) -> Implicit {
     // Awkward numbers: far from the origin, full 53-bit mantissas.
     let constraints: Vec<Constraint> = (0..60)
         .map(|i| {
-            let p: Vec<f64> = (0..dim)
-                .map(|_| 1234.5678 + 10.0 * rng.random::<f64>())
-                .collect();
+            let p: Vec<f64> = (0..dim).map(|_| 1234.5678 + 10.0 * rng.random::<f64>()).collect();
             Constraint::new(&p, [0.0, rng.random::<f64>(), -rng.random::<f64>()][i % 3])
         })
         .collect();
@@ -22,15 +20,9 @@ fn sample_implicit(dim: usize, kernel: Kernel, seed: u64) -> Implicit {
 }
 
 fn sample_model(dim: usize, kernel: Kernel) -> Model {
-    let bounds = Aabb {
-        min: DVec3::splat(1234.5678),
-        max: DVec3::splat(1244.5678),
-    };
-    let grid = Grid {
-        dims: [30, 31, 32],
-        origin: [1230.1, 1230.2, 1230.3],
-        voxel_size: 0.123456789,
-    };
+    let bounds = Aabb { min: DVec3::splat(1234.5678), max: DVec3::splat(1244.5678) };
+    let grid =
+        Grid { dims: [30, 31, 32], origin: [1230.1, 1230.2, 1230.3], voxel_size: 0.123456789 };
     Model::from_implicit(sample_implicit(dim, kernel, dim as u64), bounds, Some(grid))
 }
 
@@ -41,11 +33,7 @@ fn bits(v: &[f64]) -> Vec<u64> {
 #[test]
 fn save_and_load_round_trip_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
-    for (dim, kernel) in [
-        (3, Kernel::ThinPlate),
-        (2, Kernel::Cubic),
-        (4, Kernel::Linear),
-    ] {
+    for (dim, kernel) in [(3, Kernel::ThinPlate), (2, Kernel::Cubic), (4, Kernel::Linear)] {
         let mut model = sample_model(dim, kernel);
         model.set_report(serde_json::json!({"iterations": 7, "rms": 0.1}));
         let path = dir.path().join(format!("model{dim}.json"));
@@ -73,10 +61,7 @@ fn save_and_load_round_trip_bit_for_bit() {
         // Saving again gives the same bytes.
         let again = dir.path().join("again.json");
         loaded.save(&again).unwrap();
-        assert_eq!(
-            std::fs::read(&path).unwrap(),
-            std::fs::read(&again).unwrap()
-        );
+        assert_eq!(std::fs::read(&path).unwrap(), std::fs::read(&again).unwrap());
     }
 }
 
@@ -125,51 +110,23 @@ type Edit = dyn FnOnce(&mut serde_json::Value);
 #[test]
 fn wrong_files_and_versions_are_named_errors() {
     let cases: Vec<(Box<Edit>, &str)> = vec![
-        (
-            Box::new(|j| j["version"] = 2.into()),
-            "version 2 is not supported",
-        ),
-        (
-            Box::new(|j| j["format"] = "something".into()),
-            "not an implicitize model",
-        ),
-        (
-            Box::new(|j| j["sign"] = "inside negative".into()),
-            "sign convention",
-        ),
+        (Box::new(|j| j["version"] = 2.into()), "version 2 is not supported"),
+        (Box::new(|j| j["format"] = "something".into()), "not an implicitize model"),
+        (Box::new(|j| j["sign"] = "inside negative".into()), "sign convention"),
         (Box::new(|j| j["shape"]["kernel"] = "gauss".into()), "gauss"),
         (Box::new(|j| j["shape"]["type"] = "csg".into()), "csg"),
+        (Box::new(|j| j["shape"]["weights"][3] = serde_json::Value::Null), "not a valid model"),
         (
-            Box::new(|j| j["shape"]["weights"][3] = serde_json::Value::Null),
-            "not a valid model",
-        ),
-        (
-            Box::new(|j| {
-                j["shape"]["weights"]
-                    .as_array_mut()
-                    .unwrap()
-                    .pop()
-                    .map(drop)
-                    .unwrap()
-            }),
+            Box::new(|j| j["shape"]["weights"].as_array_mut().unwrap().pop().map(drop).unwrap()),
             "59 weights for 60",
         ),
-        (
-            Box::new(|j| j["shape"]["kinds"][0] = "interior".into()),
-            "centre 1 has value 0",
-        ),
+        (Box::new(|j| j["shape"]["kinds"][0] = "interior".into()), "centre 1 has value 0"),
         (
             Box::new(|j| j["shape"]["centres"][5] = serde_json::json!([1.0, 2.0])),
             "constraint 6 has 2 coordinates",
         ),
-        (
-            Box::new(|j| j["shape"]["dimension"] = 7.into()),
-            "dimension 7",
-        ),
-        (
-            Box::new(|j| j["shape"]["normalization"]["scale"] = 0.0.into()),
-            "normalization",
-        ),
+        (Box::new(|j| j["shape"]["dimension"] = 7.into()), "dimension 7"),
+        (Box::new(|j| j["shape"]["normalization"]["scale"] = 0.0.into()), "normalization"),
         (Box::new(|j| j["bounds"]["min"][0] = 1e9.into()), "bounds"),
     ];
     for (edit, want) in cases {
@@ -189,11 +146,7 @@ fn damaged_and_missing_files_are_named_errors() {
     let message = Model::load(&truncated).unwrap_err().to_string();
     assert_names_file(&truncated, &message, "line");
     let missing = dir.path().join("missing.json");
-    assert_names_file(
-        &missing,
-        &Model::load(&missing).unwrap_err().to_string(),
-        "",
-    );
+    assert_names_file(&missing, &Model::load(&missing).unwrap_err().to_string(), "");
     let text = dir.path().join("text.json");
     std::fs::write(&text, "hello").unwrap();
     assert_names_file(

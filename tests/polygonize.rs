@@ -68,11 +68,7 @@ impl Field for Torus {
 
 /// A grid far from the origin in odd units, so nothing relies on unit voxels at the origin.
 fn grid(dims: [usize; 3]) -> Grid {
-    Grid {
-        dims,
-        origin: [103.5, -47.25, 6.125],
-        voxel_size: 0.37,
-    }
+    Grid { dims, origin: [103.5, -47.25, 6.125], voxel_size: 0.37 }
 }
 
 /// The grid's centre in mesh units.
@@ -86,9 +82,7 @@ fn centre(g: &Grid) -> DVec3 {
 
 /// `f` sampled at every voxel as an f32 volume.
 fn sampled(g: Grid, f: impl Fn(DVec3) -> f64) -> Volume<f32> {
-    let data = (0..g.len())
-        .map(|n| f(g.position(g.voxel(n))) as f32)
-        .collect();
+    let data = (0..g.len()).map(|n| f(g.position(g.voxel(n))) as f32).collect();
     Volume { grid: g, data }
 }
 
@@ -110,11 +104,7 @@ fn boundary_edges(mesh: &Mesh) -> Vec<(u32, u32)> {
     for (e, &n) in &edges {
         assert_eq!(n, 1, "edge {e:?} is used {n} times in the same direction");
     }
-    edges
-        .keys()
-        .filter(|&&(a, b)| !edges.contains_key(&(b, a)))
-        .copied()
-        .collect()
+    edges.keys().filter(|&&(a, b)| !edges.contains_key(&(b, a))).copied().collect()
 }
 
 /// Every edge is shared by exactly two triangles, in opposite directions.
@@ -133,10 +123,7 @@ fn assert_closed(mesh: &Mesh) {
 fn assert_well_formed(mesh: &Mesh, voxel: f64) {
     let mut used = vec![false; mesh.vertices.len()];
     for (t, tri) in mesh.triangles.iter().enumerate() {
-        assert!(
-            tri[0] != tri[1] && tri[1] != tri[2] && tri[2] != tri[0],
-            "triangle {t}: {tri:?}"
-        );
+        assert!(tri[0] != tri[1] && tri[1] != tri[2] && tri[2] != tri[0], "triangle {t}: {tri:?}");
         let [a, b, c] = mesh.corners(t);
         let area = 0.5 * (b - a).cross(c - a).length();
         assert!(area > 1e-8 * voxel * voxel, "triangle {t} has area {area}");
@@ -144,22 +131,12 @@ fn assert_well_formed(mesh: &Mesh, voxel: f64) {
             used[v as usize] = true;
         }
     }
-    assert!(
-        used.iter().all(|&u| u),
-        "some vertex is used by no triangle"
-    );
-    let mut keys: Vec<[u64; 3]> = mesh
-        .vertices
-        .iter()
-        .map(|p| p.to_array().map(f64::to_bits))
-        .collect();
+    assert!(used.iter().all(|&u| u), "some vertex is used by no triangle");
+    let mut keys: Vec<[u64; 3]> =
+        mesh.vertices.iter().map(|p| p.to_array().map(f64::to_bits)).collect();
     keys.sort_unstable();
     keys.dedup();
-    assert_eq!(
-        keys.len(),
-        mesh.vertices.len(),
-        "some vertex position is repeated"
-    );
+    assert_eq!(keys.len(), mesh.vertices.len(), "some vertex position is repeated");
 }
 
 /// The signed volume enclosed by the mesh (positive when oriented outward).
@@ -191,25 +168,16 @@ fn components(mesh: &Mesh) -> usize {
     }
     for t in &mesh.triangles {
         for w in [t[1], t[2]] {
-            let (a, b) = (
-                root(&mut parent, t[0] as usize),
-                root(&mut parent, w as usize),
-            );
+            let (a, b) = (root(&mut parent, t[0] as usize), root(&mut parent, w as usize));
             parent[a] = b;
         }
     }
-    (0..parent.len())
-        .filter(|&v| root(&mut parent, v) == v)
-        .count()
+    (0..parent.len()).filter(|&v| root(&mut parent, v) == v).count()
 }
 
 /// The largest distance from a vertex to the true surface, in voxels.
 fn max_error(mesh: &Mesh, voxel: f64, distance: impl Fn(DVec3) -> f64) -> f64 {
-    mesh.vertices
-        .iter()
-        .map(|&p| distance(p))
-        .fold(0.0, f64::max)
-        / voxel
+    mesh.vertices.iter().map(|&p| distance(p)).fold(0.0, f64::max) / voxel
 }
 
 /// Checks everything a closed surface must satisfy and returns its vertex error in voxels.
@@ -221,32 +189,19 @@ fn check_closed_shape(
     volume_tolerance: f64,
     euler: i64,
 ) -> f64 {
-    assert!(
-        mesh.triangles.len() > 100,
-        "{} triangles",
-        mesh.triangles.len()
-    );
+    assert!(mesh.triangles.len() > 100, "{} triangles", mesh.triangles.len());
     assert_well_formed(mesh, g.voxel_size);
     assert_closed(mesh);
     assert_eq!(euler_characteristic(mesh), euler);
     assert_eq!(components(mesh), 1);
     let v = signed_volume(mesh);
-    assert!(
-        v > 0.0,
-        "signed volume {v} is not positive: normals point inward"
-    );
-    assert!(
-        (v / volume - 1.0).abs() < volume_tolerance,
-        "volume {v} vs analytic {volume}"
-    );
+    assert!(v > 0.0, "signed volume {v} is not positive: normals point inward");
+    assert!((v / volume - 1.0).abs() < volume_tolerance, "volume {v} vs analytic {volume}");
     max_error(mesh, g.voxel_size, distance)
 }
 
 fn sphere_in(g: &Grid) -> Sphere {
-    Sphere {
-        center: centre(g) + DVec3::new(0.13, -0.21, 0.07),
-        radius: 10.3 * g.voxel_size,
-    }
+    Sphere { center: centre(g) + DVec3::new(0.13, -0.21, 0.07), radius: 10.3 * g.voxel_size }
 }
 
 fn torus_in(g: &Grid) -> Torus {
@@ -300,10 +255,7 @@ fn a_signed_distance_volume_polygonizes_at_any_iso_level() {
     let s = sphere_in(&g);
     // Signed distance in voxels, inside positive; the level 2.5 is a sphere 2.5 voxels smaller.
     let sd = sampled(g, |p| (s.radius - (p - s.center).length()) / g.voxel_size);
-    let shrunk = Sphere {
-        center: s.center,
-        radius: s.radius - 2.5 * g.voxel_size,
-    };
+    let shrunk = Sphere { center: s.center, radius: s.radius - 2.5 * g.voxel_size };
     let mesh = polygonize(&sd, 2.5);
     let error = check_closed_shape(&mesh, &g, |p| shrunk.distance(p), shrunk.volume(), 0.02, 2);
     assert!(error < 0.1, "vertex {error} voxels from the sphere");
@@ -315,21 +267,14 @@ fn random_volumes_with_outside_borders_are_watertight() {
     for round in 0..16 {
         // Rows of k span several 64-bit words in the later rounds.
         let long = if round < 8 { 20 } else { 140 };
-        let dims = [
-            rng.random_range(2..16),
-            rng.random_range(2..16),
-            rng.random_range(2..long),
-        ];
+        let dims = [rng.random_range(2..16), rng.random_range(2..16), rng.random_range(2..long)];
         let g = grid(dims);
         let mut volume = Volume::filled(g, -1.0f32);
         // Coarse values (some exactly at the level) in odd rounds, continuous ones in even.
         let iso = if round % 2 == 0 { 0.3 } else { 0.0 };
         for n in 0..g.len() {
             let [i, j, k] = g.voxel(n);
-            let border = [i, j, k]
-                .iter()
-                .zip(dims)
-                .any(|(&c, d)| c == 0 || c + 1 == d);
+            let border = [i, j, k].iter().zip(dims).any(|(&c, d)| c == 0 || c + 1 == d);
             if !border {
                 volume.data[n] = if round % 2 == 0 {
                     rng.random_range(-1.0..1.0)
@@ -361,9 +306,7 @@ fn values_at_the_level_count_as_inside() {
     assert_eq!(euler_characteristic(&mesh), 2);
     assert!(signed_volume(&mesh) > 0.0);
     // Every vertex hugs the voxel centre.
-    let error = max_error(&mesh, g.voxel_size, |p| {
-        (p - g.position([2, 2, 2])).length()
-    });
+    let error = max_error(&mesh, g.voxel_size, |p| (p - g.position([2, 2, 2])).length());
     assert!(error < 0.002, "{error}");
 }
 
@@ -371,10 +314,7 @@ fn values_at_the_level_count_as_inside() {
 fn a_surface_cut_by_the_grid_is_open_only_at_the_grid_bounds() {
     let g = grid([20, 18, 16]);
     // A sphere centred on the grid's corner voxel, so the grid holds an eighth of it.
-    let s = Sphere {
-        center: g.position([0, 0, 0]),
-        radius: 9.3 * g.voxel_size,
-    };
+    let s = Sphere { center: g.position([0, 0, 0]), radius: 9.3 * g.voxel_size };
     let mesh = polygonize_field(&s, &g);
     assert_well_formed(&mesh, g.voxel_size);
     let open = boundary_edges(&mesh);
@@ -387,10 +327,7 @@ fn a_surface_cut_by_the_grid_is_open_only_at_the_grid_bounds() {
             .any(|(&c, d)| c.abs() < 1e-9 || (c - (d - 1) as f64).abs() < 1e-9)
     };
     for (a, b) in open {
-        assert!(
-            on_bounds(a) && on_bounds(b),
-            "boundary edge ({a}, {b}) inside the grid"
-        );
+        assert!(on_bounds(a) && on_bounds(b), "boundary edge ({a}, {b}) inside the grid");
     }
     assert!(max_error(&mesh, g.voxel_size, |p| s.distance(p)) < 0.005);
 }
@@ -413,16 +350,10 @@ fn a_two_voxel_thin_plate_is_closed() {
     assert_eq!(components(&mesh), 1);
     let v = signed_volume(&mesh) / h.powi(3);
     // Interpolation chamfers the box's edges a little.
-    assert!(
-        v > 0.0 && (v / 800.0 - 1.0).abs() < 0.05,
-        "volume {v} voxels vs 800"
-    );
+    assert!(v > 0.0 && (v / 800.0 - 1.0).abs() < 0.05, "volume {v} voxels vs 800");
     // Faces of the plate are flat, so their vertices are exact.
-    let on_face = mesh
-        .vertices
-        .iter()
-        .filter(|p| ((**p - c).x.abs() / h - 1.0).abs() < 1e-4)
-        .count();
+    let on_face =
+        mesh.vertices.iter().filter(|p| ((**p - c).x.abs() / h - 1.0).abs() < 1e-4).count();
     assert!(on_face > mesh.vertices.len() / 2);
 }
 
@@ -436,9 +367,7 @@ fn several_components_stay_apart() {
             radius: 5.2 * h,
         })
         .collect();
-    let union = sampled(g, |p| {
-        spheres.iter().map(|s| s.value(p)).fold(f64::MIN, f64::max)
-    });
+    let union = sampled(g, |p| spheres.iter().map(|s| s.value(p)).fold(f64::MIN, f64::max));
     let mesh = polygonize(&union, 0.0);
     assert_well_formed(&mesh, h);
     assert_closed(&mesh);
@@ -446,10 +375,7 @@ fn several_components_stay_apart() {
     assert_eq!(euler_characteristic(&mesh), 6);
     let total: f64 = spheres.iter().map(Sphere::volume).sum();
     let v = signed_volume(&mesh);
-    assert!(
-        (v / total - 1.0).abs() < 0.04,
-        "volume {v} vs analytic {total}"
-    );
+    assert!((v / total - 1.0).abs() < 0.04, "volume {v} vs analytic {total}");
 }
 
 #[test]
@@ -458,10 +384,7 @@ fn grids_without_cubes_give_empty_meshes() {
         let g = grid(dims);
         let mesh = polygonize(&Volume::filled(g, 1.0f32), 0.0);
         assert!(mesh.triangles.is_empty() && mesh.vertices.is_empty());
-        let s = Sphere {
-            center: centre(&g),
-            radius: 3.0 * g.voxel_size,
-        };
+        let s = Sphere { center: centre(&g), radius: 3.0 * g.voxel_size };
         assert!(polygonize_field(&s, &g).triangles.is_empty());
     }
 }
@@ -470,11 +393,7 @@ fn grids_without_cubes_give_empty_meshes() {
 fn volumes_entirely_inside_or_outside_give_empty_meshes() {
     let g = grid([9, 8, 7]);
     for value in [-1.0f32, 0.0, 2.0, f32::NAN] {
-        assert!(
-            polygonize(&Volume::filled(g, value), 0.0)
-                .triangles
-                .is_empty()
-        );
+        assert!(polygonize(&Volume::filled(g, value), 0.0).triangles.is_empty());
     }
 }
 
@@ -486,10 +405,7 @@ fn the_mesh_does_not_depend_on_the_number_of_threads() {
     let t = torus_in(&g);
     let volume = sampled(g, |p| t.value(p));
     let with_threads = |n: usize| {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build()
-            .expect("a thread pool");
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().expect("a thread pool");
         pool.install(|| (polygonize(&volume, 0.0), polygonize_field(&t, &g)))
     };
     let one = with_threads(1);

@@ -43,19 +43,12 @@ fn random_constraints(dim: usize, n: usize, seed: u64, offset: f64, size: f64) -
 }
 
 fn flat(constraints: &[Constraint]) -> Vec<f64> {
-    constraints
-        .iter()
-        .flat_map(|c| c.position().to_vec())
-        .collect()
+    constraints.iter().flat_map(|c| c.position().to_vec()).collect()
 }
 
 fn max_relative_miss(implicit: &Implicit, constraints: &[Constraint], reference: f64) -> f64 {
     let values = implicit.values_flat(&flat(constraints));
-    values
-        .iter()
-        .zip(constraints)
-        .map(|(v, c)| (v - c.value()).abs())
-        .fold(0.0, f64::max)
+    values.iter().zip(constraints).map(|(v, c)| (v - c.value()).abs()).fold(0.0, f64::max)
         / reference
 }
 
@@ -65,14 +58,8 @@ fn interpolation_reproduces_every_constraint_in_2d_3d_and_4d() {
         for kernel in KERNELS {
             let constraints = random_constraints(dim, 300, dim as u64, 0.0, 1.0);
             let implicit = Implicit::solve(dim, kernel, &constraints).unwrap();
-            assert_eq!(
-                (implicit.dim(), implicit.kernel(), implicit.len()),
-                (dim, kernel, 300)
-            );
-            let largest = constraints
-                .iter()
-                .map(|c| c.value().abs())
-                .fold(0.0, f64::max);
+            assert_eq!((implicit.dim(), implicit.kernel(), implicit.len()), (dim, kernel, 300));
+            let largest = constraints.iter().map(|c| c.value().abs()).fold(0.0, f64::max);
             let miss = max_relative_miss(&implicit, &constraints, largest);
             assert!(miss < 1e-8, "dim {dim} {kernel}: relative miss {miss:e}");
             assert!(
@@ -80,9 +67,8 @@ fn interpolation_reproduces_every_constraint_in_2d_3d_and_4d() {
                 "dim {dim} {kernel}: residual {:e}",
                 implicit.residual()
             );
-            let one_by_one = constraints
-                .iter()
-                .map(|c| (implicit.value_at(c.position()) - c.value()).abs());
+            let one_by_one =
+                constraints.iter().map(|c| (implicit.value_at(c.position()) - c.value()).abs());
             assert!(one_by_one.fold(0.0, f64::max) / largest < 1e-8);
         }
     }
@@ -96,10 +82,7 @@ fn far_from_the_origin_and_in_large_units_interpolation_holds() {
         .iter()
         .map(|c| {
             Constraint::new(
-                &c.position()
-                    .iter()
-                    .map(|x| 1e6 + 1e3 * x)
-                    .collect::<Vec<_>>(),
+                &c.position().iter().map(|x| 1e6 + 1e3 * x).collect::<Vec<_>>(),
                 c.value(),
             )
         })
@@ -115,10 +98,7 @@ fn far_from_the_origin_and_in_large_units_interpolation_holds() {
         let p: Vec<f64> = (0..3).map(|_| rng.random::<f64>()).collect();
         let q: Vec<f64> = p.iter().map(|x| 1e6 + 1e3 * x).collect();
         let (fa, fb) = (a.value_at(&p), b.value_at(&q));
-        assert!(
-            (fa - fb).abs() < 1e-8 * largest.max(fa.abs()),
-            "{fa} vs {fb}"
-        );
+        assert!((fa - fb).abs() < 1e-8 * largest.max(fa.abs()), "{fa} vs {fb}");
     }
 }
 
@@ -146,10 +126,7 @@ fn an_affine_function_is_reproduced_everywhere() {
     for kernel in KERNELS {
         let implicit = Implicit::solve(3, kernel, &constraints).unwrap();
         for p in [[0.0, 0.0, 0.0], [3.0, -2.0, 1.0], [0.2, 0.9, -0.7]] {
-            assert!(
-                (implicit.value_at(&p) - affine(&p)).abs() < 1e-9,
-                "{kernel} at {p:?}"
-            );
+            assert!((implicit.value_at(&p) - affine(&p)).abs() < 1e-9, "{kernel} at {p:?}");
             let g = implicit.gradient_at(&p);
             assert!(
                 (g[0] + 2.0).abs() < 1e-8 && (g[1] - 0.5).abs() < 1e-8 && (g[2] - 1.5).abs() < 1e-8,
@@ -177,10 +154,7 @@ fn a_sphere_is_positive_inside_and_negative_outside() {
     assert!(implicit.value(DVec3::new(1.4, 0.2, -0.3)) < 0.0);
     // The gradient points inside.
     let g = implicit.gradient(DVec3::new(0.0, 1.0, 0.0));
-    assert!(
-        g.y < 0.0 && g.y.abs() > 10.0 * g.x.abs().max(g.z.abs()),
-        "{g}"
-    );
+    assert!(g.y < 0.0 && g.y.abs() > 10.0 * g.x.abs().max(g.z.abs()), "{g}");
 }
 
 #[test]
@@ -217,9 +191,8 @@ fn batches_single_points_and_the_field_agree_bit_for_bit() {
     let constraints = random_constraints(3, 123, 12, 0.0, 1.0);
     let implicit = Implicit::solve(3, Kernel::ThinPlate, &constraints).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(13);
-    let points: Vec<[f64; 3]> = (0..1_037)
-        .map(|_| [rng.random(), rng.random(), rng.random()])
-        .collect();
+    let points: Vec<[f64; 3]> =
+        (0..1_037).map(|_| [rng.random(), rng.random(), rng.random()]).collect();
     let batch = implicit.values3(&points);
     let flat: Vec<f64> = points.iter().flatten().copied().collect();
     assert_eq!(batch, implicit.values_flat(&flat));
@@ -242,9 +215,7 @@ fn a_2d_function_ignores_z_through_the_field() {
 }
 
 fn solve_error(dim: usize, constraints: &[Constraint]) -> String {
-    Implicit::solve(dim, Kernel::ThinPlate, constraints)
-        .unwrap_err()
-        .to_string()
+    Implicit::solve(dim, Kernel::ThinPlate, constraints).unwrap_err().to_string()
 }
 
 #[test]
@@ -252,10 +223,7 @@ fn coincident_and_nearly_coincident_constraints_are_errors() {
     let mut constraints = random_constraints(3, 20, 15, 0.0, 1.0);
     constraints[12] = Constraint::new(constraints[4].position(), 0.5);
     let message = solve_error(3, &constraints);
-    assert!(
-        message.contains("constraints 5 and 13") && message.contains("coincide"),
-        "{message}"
-    );
+    assert!(message.contains("constraints 5 and 13") && message.contains("coincide"), "{message}");
     let mut near = constraints[4].position().to_vec();
     near[1] += 1e-12;
     constraints[12] = Constraint::new(&near, 0.5);
@@ -270,14 +238,9 @@ fn too_few_or_flat_constraints_are_errors() {
     let plane: Vec<Constraint> = (0..30)
         .map(|i| Constraint::new(&[(i % 6) as f64, (i / 6) as f64, 2.0], (i % 2) as f64))
         .collect();
-    assert!(
-        solve_error(3, &plane).contains("plane"),
-        "{}",
-        solve_error(3, &plane)
-    );
-    let line: Vec<Constraint> = (0..10)
-        .map(|i| Constraint::new(&[i as f64, 2.0 * i as f64], 0.0))
-        .collect();
+    assert!(solve_error(3, &plane).contains("plane"), "{}", solve_error(3, &plane));
+    let line: Vec<Constraint> =
+        (0..10).map(|i| Constraint::new(&[i as f64, 2.0 * i as f64], 0.0)).collect();
     assert!(solve_error(2, &line).contains("line"));
     let same: Vec<Constraint> = (0..10).map(|_| Constraint::new(&[1.0, 1.0], 0.0)).collect();
     assert!(solve_error(2, &same).contains("affinely independent"));
@@ -301,10 +264,7 @@ fn nan_wrong_coordinates_and_bad_dimensions_are_errors() {
 fn kernel_names_round_trip() {
     for kernel in KERNELS {
         assert_eq!(Kernel::from_name(kernel.name()), Some(kernel));
-        assert_eq!(
-            serde_json::to_string(&kernel).unwrap(),
-            format!("\"{}\"", kernel.name())
-        );
+        assert_eq!(serde_json::to_string(&kernel).unwrap(), format!("\"{}\"", kernel.name()));
     }
     assert_eq!(Kernel::default(), Kernel::ThinPlate);
     assert_eq!(Kernel::from_name("gaussian"), None);
@@ -313,10 +273,7 @@ fn kernel_names_round_trip() {
 /// Reads a 1D float64 .npy array.
 fn read_vector(path: &Path) -> Vec<f64> {
     let bytes = std::fs::read(path).unwrap();
-    npyz::NpyFile::new(&bytes[..])
-        .unwrap()
-        .into_vec::<f64>()
-        .unwrap()
+    npyz::NpyFile::new(&bytes[..]).unwrap().into_vec::<f64>().unwrap()
 }
 
 #[test]
@@ -331,20 +288,13 @@ fn bunny_values_match_scipy_rbf_interpolator() {
     let ours = implicit.values_flat(&points);
     assert_eq!(ours.len(), scipy.len());
     let reference = scipy.iter().map(|v| v.abs()).fold(0.0, f64::max);
-    let worst = ours
-        .iter()
-        .zip(&scipy)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
+    let worst = ours.iter().zip(&scipy).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(
         worst <= 1e-6 * reference,
         "worst difference {worst:e} vs largest |value| {reference:e}"
     );
     // Interpolation to 1e-8 of the largest |value| (4 voxels).
-    let largest = constraints
-        .iter()
-        .map(|c| c.value().abs())
-        .fold(0.0, f64::max);
+    let largest = constraints.iter().map(|c| c.value().abs()).fold(0.0, f64::max);
     assert!(max_relative_miss(&implicit, &constraints, largest) < 1e-8);
 }
 
@@ -363,9 +313,7 @@ impl<F: Fn(DVec3) -> f64 + Sync> Field for Analytic<F> {
 }
 
 fn full_evaluation<F: Field + ?Sized>(field: &F, grid: &Grid) -> Vec<f64> {
-    let points: Vec<DVec3> = (0..grid.len())
-        .map(|v| grid.position(grid.voxel(v)))
-        .collect();
+    let points: Vec<DVec3> = (0..grid.len()).map(|v| grid.position(grid.voxel(v))).collect();
     field.values(&points)
 }
 
@@ -392,12 +340,7 @@ fn assert_same_signs<F: Field + ?Sized>(
         );
         let [i, j, k] = grid.voxel(v);
         if [i, j, k].iter().all(|&c| c % 4 == 0) {
-            assert_eq!(
-                volume.data[v],
-                full[v] as f32,
-                "coarse sample {:?}",
-                [i, j, k]
-            );
+            assert_eq!(volume.data[v], full[v] as f32, "coarse sample {:?}", [i, j, k]);
         }
         for n in [[i + 1, j, k], [i, j + 1, k], [i, j, k + 1]] {
             if n[0] < grid.dims[0] && n[1] < grid.dims[1] && n[2] < grid.dims[2] {
@@ -410,10 +353,7 @@ fn assert_same_signs<F: Field + ?Sized>(
 
 fn grid_around(min: f64, max: f64, n: usize) -> Grid {
     Grid::around(
-        &Aabb {
-            min: DVec3::splat(min),
-            max: DVec3::splat(max),
-        },
+        &Aabb { min: DVec3::splat(min), max: DVec3::splat(max) },
         Resolution::LongestAxis(n),
     )
     .unwrap()
@@ -430,12 +370,7 @@ fn grid_evaluation_finds_every_sign_change_of_analytic_fields() {
         });
         // Blobs a few coarse cubes across, scattered.
         let blobs = Analytic(|p: DVec3| {
-            let centres = [
-                [0.5, 0.5, 0.5],
-                [-0.6, 0.2, -0.4],
-                [0.1, -0.7, 0.3],
-                [-0.3, -0.3, 0.6],
-            ];
+            let centres = [[0.5, 0.5, 0.5], [-0.6, 0.2, -0.4], [0.1, -0.7, 0.3], [-0.3, -0.3, 0.6]];
             centres
                 .iter()
                 .map(|c| 0.15 - (p - DVec3::from_array(*c)).length())
@@ -444,10 +379,7 @@ fn grid_evaluation_finds_every_sign_change_of_analytic_fields() {
         let wavy = Analytic(|p: DVec3| (5.0 * p.x).sin() * (4.0 * p.y).cos() + 0.5 * p.z);
         for field in [&sphere as &dyn Field, &torus, &blobs, &wavy] {
             let changes = assert_same_signs(field, &grid, None);
-            assert!(
-                changes > 100,
-                "{changes} sign changes: the test field has no surface"
-            );
+            assert!(changes > 100, "{changes} sign changes: the test field has no surface");
         }
     }
 }
@@ -501,19 +433,12 @@ fn a_component_smaller_than_a_coarse_cube_is_found_only_near_the_goal() {
     let mut near_goal = far_goal.clone();
     // A voxel of the speck's cube 8 voxels from the goal boundary: the cube is sampled finely.
     near_goal.data[grid.index([24, 22, 22])] = -8.0;
-    assert_eq!(
-        evaluate_on_grid(&speck, &grid, Some(&near_goal)).data[inside],
-        full[inside] as f32
-    );
+    assert_eq!(evaluate_on_grid(&speck, &grid, Some(&near_goal)).data[inside], full[inside] as f32);
 }
 
 #[test]
 fn grid_evaluation_works_on_a_2d_grid() {
-    let grid = Grid {
-        dims: [37, 30, 1],
-        origin: [-1.0, -1.0, 0.0],
-        voxel_size: 2.0 / 36.0,
-    };
+    let grid = Grid { dims: [37, 30, 1], origin: [-1.0, -1.0, 0.0], voxel_size: 2.0 / 36.0 };
     assert!(grid.is_2d());
     let circle = Analytic(|p: DVec3| 0.7 - (p.x * p.x + p.y * p.y).sqrt());
     assert!(assert_same_signs(&circle, &grid, None) > 50);
@@ -549,17 +474,9 @@ fn csv_files_name_the_file_and_line_of_an_error() {
         ("rows.csv", "x,y,z,value\n", "no rows"),
     ];
     for (name, text, want) in cases {
-        let message = read_constraints(&write(name, text))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            message.contains(name) && message.contains(want),
-            "{message}"
-        );
+        let message = read_constraints(&write(name, text)).unwrap_err().to_string();
+        assert!(message.contains(name) && message.contains(want), "{message}");
     }
     let points = write("points.csv", "x,y,z\n1,2,3\n4,5,6\n");
-    assert_eq!(
-        rbf::read_points(&points).unwrap(),
-        (3, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
-    );
+    assert_eq!(rbf::read_points(&points).unwrap(), (3, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]));
 }

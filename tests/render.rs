@@ -26,10 +26,7 @@ impl Field for Ball {
 
 impl Ball {
     fn bounds(&self) -> Aabb {
-        Aabb {
-            min: self.center - self.radius,
-            max: self.center + self.radius,
-        }
+        Aabb { min: self.center - self.radius, max: self.center + self.radius }
     }
 }
 
@@ -54,10 +51,7 @@ impl Field for Torus {
 impl Torus {
     fn bounds(&self) -> Aabb {
         let r = self.major + self.minor;
-        Aabb {
-            min: DVec3::new(-r, -r, -self.minor),
-            max: DVec3::new(r, r, self.minor),
-        }
+        Aabb { min: DVec3::new(-r, -r, -self.minor), max: DVec3::new(r, r, self.minor) }
     }
 }
 
@@ -107,10 +101,7 @@ fn parametric(nu: usize, nv: usize, poles: bool, point: impl Fn(f64, f64) -> DVe
             triangles.push([a, c, d]);
         }
     }
-    Mesh {
-        vertices,
-        triangles,
-    }
+    Mesh { vertices, triangles }
 }
 
 fn uv_sphere(ball: &Ball, nu: usize, nv: usize) -> Mesh {
@@ -142,74 +133,38 @@ fn covered(image: &Image) -> usize {
 
 #[test]
 fn a_ball_and_its_mesh_show_the_same_silhouette_and_shading() {
-    let ball = Ball {
-        center: DVec3::new(3.0, -2.0, 1.0),
-        radius: 0.8,
-    };
+    let ball = Ball { center: DVec3::new(3.0, -2.0, 1.0), radius: 0.8 };
     let camera = Camera::framing(&ball.bounds(), 35.0, 20.0, 240, 200).unwrap();
-    let field = render_field(
-        &ball,
-        &ball.bounds(),
-        &camera,
-        Coloring::Plain,
-        March::default(),
-    )
-    .unwrap();
-    let mesh = render_mesh(
-        &uv_sphere(&ball, 256, 128),
-        &camera,
-        Coloring::Plain,
-        Shading::Smooth,
-    );
-    assert!(
-        covered(&field) > 240 * 200 / 5,
-        "the ball fills the frame: {}",
-        covered(&field)
-    );
+    let field =
+        render_field(&ball, &ball.bounds(), &camera, Coloring::Plain, March::default()).unwrap();
+    let mesh = render_mesh(&uv_sphere(&ball, 256, 128), &camera, Coloring::Plain, Shading::Smooth);
+    assert!(covered(&field) > 240 * 200 / 5, "the ball fills the frame: {}", covered(&field));
     let iou = intersection_over_union(&field, &mesh);
     assert!(iou >= 0.98, "intersection over union {iou}");
     // Same light and camera: colours agree where both show the ball.
     let (mut sum, mut n) = (0.0, 0);
     for (p, q) in field.rgba.chunks_exact(4).zip(mesh.rgba.chunks_exact(4)) {
         if p[3] != 0 && q[3] != 0 {
-            sum += (0..3)
-                .map(|c| (p[c] as f64 - q[c] as f64).abs())
-                .sum::<f64>()
-                / 3.0;
+            sum += (0..3).map(|c| (p[c] as f64 - q[c] as f64).abs()).sum::<f64>() / 3.0;
             n += 1;
         }
     }
-    assert!(
-        sum / (n as f64) < 2.0,
-        "mean colour difference {}",
-        sum / n as f64
-    );
+    assert!(sum / (n as f64) < 2.0, "mean colour difference {}", sum / n as f64);
 }
 
 #[test]
 fn a_torus_and_its_mesh_show_the_same_silhouette_with_the_hole() {
-    let torus = Torus {
-        major: 1.0,
-        minor: 0.35,
-    };
+    let torus = Torus { major: 1.0, minor: 0.35 };
     let mesh = uv_torus(&torus, 256, 96);
     for (azimuth, elevation, hole) in [(20.0, 50.0, true), (-60.0, 15.0, false), (0.0, 90.0, false)]
     {
         let camera = Camera::framing(&torus.bounds(), azimuth, elevation, 200, 160).unwrap();
-        let field = render_field(
-            &torus,
-            &torus.bounds(),
-            &camera,
-            Coloring::Normals,
-            March::default(),
-        )
-        .unwrap();
+        let field =
+            render_field(&torus, &torus.bounds(), &camera, Coloring::Normals, March::default())
+                .unwrap();
         let drawn = render_mesh(&mesh, &camera, Coloring::Normals, Shading::Flat);
         let iou = intersection_over_union(&field, &drawn);
-        assert!(
-            iou >= 0.98,
-            "view ({azimuth}, {elevation}): intersection over union {iou}"
-        );
+        assert!(iou >= 0.98, "view ({azimuth}, {elevation}): intersection over union {iou}");
         if hole {
             // The hole shows: the torus's centre projects to the frame's centre, empty in both.
             let (x, y, _) = camera.project(DVec3::ZERO);
@@ -228,11 +183,7 @@ impl<A: Field, B: Field> Field for Union<A, B> {
         self.0.value(p).max(self.1.value(p))
     }
     fn gradient(&self, p: DVec3) -> DVec3 {
-        if self.0.value(p) >= self.1.value(p) {
-            self.0.gradient(p)
-        } else {
-            self.1.gradient(p)
-        }
+        if self.0.value(p) >= self.1.value(p) { self.0.gradient(p) } else { self.1.gradient(p) }
     }
 }
 
@@ -240,8 +191,7 @@ fn merged(a: Mesh, b: Mesh) -> Mesh {
     let offset = a.vertices.len() as u32;
     let mut mesh = a;
     mesh.vertices.extend(b.vertices);
-    mesh.triangles
-        .extend(b.triangles.iter().map(|t| t.map(|v| v + offset)));
+    mesh.triangles.extend(b.triangles.iter().map(|t| t.map(|v| v + offset)));
     mesh
 }
 
@@ -255,10 +205,7 @@ struct Slab {
 impl Slab {
     fn parts(&self, p: DVec3) -> (f64, f64) {
         let q = p - self.center;
-        (
-            self.half_thickness - q.y.abs(),
-            self.radius - (q.x * q.x + q.z * q.z).sqrt(),
-        )
+        (self.half_thickness - q.y.abs(), self.radius - (q.x * q.x + q.z * q.z).sqrt())
     }
 
     /// Top and bottom fans and the side band, `n` segments around.
@@ -281,10 +228,7 @@ impl Slab {
             triangles.push([rim(i, 0), rim(i + 1, 0), rim(i + 1, 1)]);
             triangles.push([rim(i, 0), rim(i + 1, 1), rim(i, 1)]);
         }
-        Mesh {
-            vertices,
-            triangles,
-        }
+        Mesh { vertices, triangles }
     }
 }
 
@@ -307,11 +251,7 @@ impl Field for Slab {
 #[test]
 fn thin_and_small_parts_are_not_lost() {
     // A flat disc 3 march steps thick, off the lattice's planes, seen from the side and above.
-    let slab = Slab {
-        center: DVec3::new(0.1, 0.0123, -0.05),
-        radius: 1.0,
-        half_thickness: 0.023,
-    };
+    let slab = Slab { center: DVec3::new(0.1, 0.0123, -0.05), radius: 1.0, half_thickness: 0.023 };
     let bounds = Aabb {
         min: slab.center - DVec3::new(1.0, 0.023, 1.0),
         max: slab.center + DVec3::new(1.0, 0.023, 1.0),
@@ -322,41 +262,18 @@ fn thin_and_small_parts_are_not_lost() {
             render_field(&slab, &bounds, &camera, Coloring::Plain, March::default()).unwrap();
         let drawn = render_mesh(&slab.mesh(256), &camera, Coloring::Plain, Shading::Flat);
         let iou = intersection_over_union(&field, &drawn);
-        assert!(
-            iou >= 0.98,
-            "thin disc at elevation {elevation}: intersection over union {iou}"
-        );
+        assert!(iou >= 0.98, "thin disc at elevation {elevation}: intersection over union {iou}");
     }
 
-    let big = Ball {
-        center: DVec3::ZERO,
-        radius: 1.0,
-    };
-    let small = Ball {
-        center: DVec3::new(1.5, 0.5, 0.3),
-        radius: 0.035,
-    };
-    let bounds = Aabb {
-        min: DVec3::splat(-1.0),
-        max: DVec3::new(1.535, 1.0, 1.0),
-    };
+    let big = Ball { center: DVec3::ZERO, radius: 1.0 };
+    let small = Ball { center: DVec3::new(1.5, 0.5, 0.3), radius: 0.035 };
+    let bounds = Aabb { min: DVec3::splat(-1.0), max: DVec3::new(1.535, 1.0, 1.0) };
     let camera = Camera::framing(&bounds, 0.0, 0.0, 300, 200).unwrap();
-    let field = render_field(
-        &Union(big, small),
-        &bounds,
-        &camera,
-        Coloring::Plain,
-        March::default(),
-    )
-    .unwrap();
-    let big = Ball {
-        center: DVec3::ZERO,
-        radius: 1.0,
-    };
-    let small = Ball {
-        center: DVec3::new(1.5, 0.5, 0.3),
-        radius: 0.035,
-    };
+    let field =
+        render_field(&Union(big, small), &bounds, &camera, Coloring::Plain, March::default())
+            .unwrap();
+    let big = Ball { center: DVec3::ZERO, radius: 1.0 };
+    let small = Ball { center: DVec3::new(1.5, 0.5, 0.3), radius: 0.035 };
     let drawn = render_mesh(
         &merged(uv_sphere(&big, 256, 128), uv_sphere(&small, 64, 32)),
         &camera,
@@ -364,38 +281,23 @@ fn thin_and_small_parts_are_not_lost() {
         Shading::Smooth,
     );
     let (x, y, _) = camera.project(small.center);
-    assert_eq!(
-        field.pixel(x as usize, y as usize).unwrap()[3],
-        255,
-        "the small ball shows"
-    );
+    assert_eq!(field.pixel(x as usize, y as usize).unwrap()[3], 255, "the small ball shows");
     let iou = intersection_over_union(&field, &drawn);
     assert!(iou >= 0.98, "two balls: intersection over union {iou}");
 }
 
 #[test]
 fn the_background_is_empty_outside_the_ball() {
-    let ball = Ball {
-        center: DVec3::new(-5.0, 0.5, 2.0),
-        radius: 1.5,
-    };
+    let ball = Ball { center: DVec3::new(-5.0, 0.5, 2.0), radius: 1.5 };
     // Framed on a larger box, so there is background all around the ball.
-    let bounds = Aabb {
-        min: ball.center - 3.0,
-        max: ball.center + 3.0,
-    };
+    let bounds = Aabb { min: ball.center - 3.0, max: ball.center + 3.0 };
     let (width, height) = (160, 120);
     let camera = Camera::framing(&bounds, 10.0, -25.0, width, height).unwrap();
     let distance = (camera.eye() - ball.center).length();
     let angle = (ball.radius / distance).asin();
     let radius_px = angle.tan() / camera.tan_half_fov_y() * height as f64 / 2.0;
     let field = render_field(&ball, &bounds, &camera, Coloring::Plain, March::default()).unwrap();
-    let mesh = render_mesh(
-        &uv_sphere(&ball, 256, 128),
-        &camera,
-        Coloring::Plain,
-        Shading::Smooth,
-    );
+    let mesh = render_mesh(&uv_sphere(&ball, 256, 128), &camera, Coloring::Plain, Shading::Smooth);
     for image in [&field, &mesh] {
         for y in 0..height {
             for x in 0..width {
@@ -416,42 +318,23 @@ fn the_background_is_empty_outside_the_ball() {
         }
     }
     // A field with no inside draws nothing; one with no outside shows the clipping box.
-    let empty = render_field(
-        &Constant(-1.0),
-        &bounds,
-        &camera,
-        Coloring::Plain,
-        March::default(),
-    )
-    .unwrap();
+    let empty =
+        render_field(&Constant(-1.0), &bounds, &camera, Coloring::Plain, March::default()).unwrap();
     assert_eq!(covered(&empty), 0);
-    let full = render_field(
-        &Constant(1.0),
-        &bounds,
-        &camera,
-        Coloring::Plain,
-        March::default(),
-    )
-    .unwrap();
+    let full =
+        render_field(&Constant(1.0), &bounds, &camera, Coloring::Plain, March::default()).unwrap();
     assert_eq!(full.pixel(width / 2, height / 2).unwrap()[3], 255);
     assert_eq!(full.pixel(0, 0).unwrap()[3], 0);
 }
 
 #[test]
 fn a_shape_framed_on_its_bounds_sits_in_the_middle_of_the_frame() {
-    let shape = Ellipsoid {
-        center: DVec3::new(100.0, -40.0, 7.0),
-        radii: DVec3::new(3.0, 1.0, 0.5),
-    };
-    let bounds = Aabb {
-        min: shape.center - shape.radii,
-        max: shape.center + shape.radii,
-    };
-    for (azimuth, elevation, width, height) in [
-        (0.0, 0.0, 200, 100),
-        (45.0, 30.0, 120, 160),
-        (200.0, -70.0, 150, 150),
-    ] {
+    let shape =
+        Ellipsoid { center: DVec3::new(100.0, -40.0, 7.0), radii: DVec3::new(3.0, 1.0, 0.5) };
+    let bounds = Aabb { min: shape.center - shape.radii, max: shape.center + shape.radii };
+    for (azimuth, elevation, width, height) in
+        [(0.0, 0.0, 200, 100), (45.0, 30.0, 120, 160), (200.0, -70.0, 150, 150)]
+    {
         let camera = Camera::framing(&bounds, azimuth, elevation, width, height).unwrap();
         let image =
             render_field(&shape, &bounds, &camera, Coloring::Plain, March::default()).unwrap();
@@ -477,35 +360,19 @@ fn a_shape_framed_on_its_bounds_sits_in_the_middle_of_the_frame() {
         assert!(lo[0] > 0 && lo[1] > 0 && hi[0] < width - 1 && hi[1] < height - 1);
         let fill =
             ((hi[0] - lo[0]) as f64 / width as f64).max((hi[1] - lo[1]) as f64 / height as f64);
-        assert!(
-            fill > 0.5,
-            "view ({azimuth}, {elevation}): the shape fills {fill} of the frame"
-        );
+        assert!(fill > 0.5, "view ({azimuth}, {elevation}): the shape fills {fill} of the frame");
     }
 }
 
 #[test]
 fn normals_are_drawn_as_colours_facing_the_eye() {
-    let ball = Ball {
-        center: DVec3::ZERO,
-        radius: 1.0,
-    };
+    let ball = Ball { center: DVec3::ZERO, radius: 1.0 };
     // From +z: the middle of the picture faces +z, its right side +x, its top +y.
     let camera = Camera::framing(&ball.bounds(), 0.0, 0.0, 101, 101).unwrap();
-    let field = render_field(
-        &ball,
-        &ball.bounds(),
-        &camera,
-        Coloring::Normals,
-        March::default(),
-    )
-    .unwrap();
-    let mesh = render_mesh(
-        &uv_sphere(&ball, 256, 128),
-        &camera,
-        Coloring::Normals,
-        Shading::Smooth,
-    );
+    let field =
+        render_field(&ball, &ball.bounds(), &camera, Coloring::Normals, March::default()).unwrap();
+    let mesh =
+        render_mesh(&uv_sphere(&ball, 256, 128), &camera, Coloring::Normals, Shading::Smooth);
     for image in [&field, &mesh] {
         let middle = image.pixel(50, 50).unwrap();
         assert!(
@@ -521,10 +388,7 @@ fn normals_are_drawn_as_colours_facing_the_eye() {
 
 #[test]
 fn scalars_run_from_red_where_small_to_green_where_large() {
-    let ball = Ball {
-        center: DVec3::ZERO,
-        radius: 1.0,
-    };
+    let ball = Ball { center: DVec3::ZERO, radius: 1.0 };
     let mesh = uv_sphere(&ball, 64, 32);
     let heights: Vec<f32> = mesh.vertices.iter().map(|p| p.y as f32).collect();
     let camera = Camera::framing(&ball.bounds(), 0.0, 0.0, 101, 101).unwrap();
@@ -535,12 +399,7 @@ fn scalars_run_from_red_where_small_to_green_where_large() {
     assert!(bottom[0] > bottom[1] + 40, "bottom is red: {bottom:?}");
     assert_eq!(
         covered(&image),
-        covered(&render_mesh(
-            &mesh,
-            &camera,
-            Coloring::Plain,
-            Shading::Smooth
-        ))
+        covered(&render_mesh(&mesh, &camera, Coloring::Plain, Shading::Smooth))
     );
     assert!(render_mesh_scalars(&mesh, &heights[1..], (0.0, 1.0), &camera).is_err());
     assert!(render_mesh_scalars(&mesh, &heights, (1.0, 1.0), &camera).is_err());
@@ -549,19 +408,10 @@ fn scalars_run_from_red_where_small_to_green_where_large() {
 
 #[test]
 fn a_png_written_reads_back_the_same() {
-    let ball = Ball {
-        center: DVec3::ZERO,
-        radius: 1.0,
-    };
+    let ball = Ball { center: DVec3::ZERO, radius: 1.0 };
     let camera = Camera::framing(&ball.bounds(), 20.0, 10.0, 70, 40).unwrap();
-    let image = render_field(
-        &ball,
-        &ball.bounds(),
-        &camera,
-        Coloring::Plain,
-        March::default(),
-    )
-    .unwrap();
+    let image =
+        render_field(&ball, &ball.bounds(), &camera, Coloring::Plain, March::default()).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("ball.png");
     image.save_png(&path).unwrap();
@@ -599,44 +449,25 @@ fn pictures_go_side_by_side() {
 
 #[test]
 fn bad_cameras_boxes_and_meshes_are_errors_not_panics() {
-    let unit = Aabb {
-        min: DVec3::ZERO,
-        max: DVec3::ONE,
-    };
+    let unit = Aabb { min: DVec3::ZERO, max: DVec3::ONE };
     assert!(Camera::framing(&unit, 0.0, 0.0, 0, 10).is_err());
     assert!(Camera::framing(&unit, 0.0, 0.0, 10, Camera::MAX_SIDE + 1).is_err());
     assert!(Camera::framing(&unit, f64::NAN, 0.0, 10, 10).is_err());
-    let nan = Aabb {
-        min: DVec3::splat(f64::NAN),
-        max: DVec3::ONE,
-    };
+    let nan = Aabb { min: DVec3::splat(f64::NAN), max: DVec3::ONE };
     assert!(Camera::framing(&nan, 0.0, 0.0, 10, 10).is_err());
     let camera = Camera::framing(&unit, 0.0, 0.0, 32, 32).unwrap();
-    let ball = Ball {
-        center: DVec3::ZERO,
-        radius: 1.0,
-    };
-    let point = Aabb {
-        min: DVec3::ONE,
-        max: DVec3::ONE,
-    };
+    let ball = Ball { center: DVec3::ZERO, radius: 1.0 };
+    let point = Aabb { min: DVec3::ONE, max: DVec3::ONE };
     assert!(render_field(&ball, &point, &camera, Coloring::Plain, March::default()).is_err());
     assert!(render_field(&ball, &nan, &camera, Coloring::Plain, March::default()).is_err());
     assert!(render_field(&ball, &unit, &camera, Coloring::Plain, March { cells: 0 }).is_err());
-    let too_fine = March {
-        cells: March::MAX_CELLS + 1,
-    };
+    let too_fine = March { cells: March::MAX_CELLS + 1 };
     assert!(render_field(&ball, &unit, &camera, Coloring::Plain, too_fine).is_err());
     // A degenerate box still frames; a field that is not a number draws nothing.
     assert!(Camera::framing(&point, 90.0, 90.0, 8, 8).is_ok());
-    let nothing = render_field(
-        &Constant(f64::NAN),
-        &unit,
-        &camera,
-        Coloring::Plain,
-        March::default(),
-    )
-    .unwrap();
+    let nothing =
+        render_field(&Constant(f64::NAN), &unit, &camera, Coloring::Plain, March::default())
+            .unwrap();
     assert_eq!(covered(&nothing), 0);
     // Triangles with missing or non-finite corners are skipped; the good one is drawn.
     let mesh = Mesh {
@@ -646,11 +477,6 @@ fn bad_cameras_boxes_and_meshes_are_errors_not_panics() {
     let drawn = render_mesh(&mesh, &camera, Coloring::Plain, Shading::Smooth);
     assert!(covered(&drawn) > 32 * 32 / 8);
     assert!(
-        covered(&render_mesh(
-            &Mesh::default(),
-            &camera,
-            Coloring::Normals,
-            Shading::Flat
-        )) == 0
+        covered(&render_mesh(&Mesh::default(), &camera, Coloring::Normals, Shading::Flat)) == 0
     );
 }

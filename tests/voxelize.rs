@@ -61,19 +61,13 @@ fn sphere(centre: DVec3, radius: f64, levels: usize) -> Mesh {
         triangles = triangles
             .iter()
             .flat_map(|&[a, b, c]| {
-                let (ab, bc, ca) = (
-                    mid(a, b, &mut vertices),
-                    mid(b, c, &mut vertices),
-                    mid(c, a, &mut vertices),
-                );
+                let (ab, bc, ca) =
+                    (mid(a, b, &mut vertices), mid(b, c, &mut vertices), mid(c, a, &mut vertices));
                 [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
             })
             .collect();
     }
-    Mesh {
-        vertices: vertices.iter().map(|&v| centre + radius * v).collect(),
-        triangles,
-    }
+    Mesh { vertices: vertices.iter().map(|&v| centre + radius * v).collect(), triangles }
 }
 
 /// A torus around the z axis, outward facing.
@@ -97,18 +91,14 @@ fn torus(major: f64, minor: f64, n: u32, m: u32) -> Mesh {
             triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
         }
     }
-    Mesh {
-        vertices,
-        triangles,
-    }
+    Mesh { vertices, triangles }
 }
 
 fn merged(a: &Mesh, b: &Mesh) -> Mesh {
     let offset = a.vertices.len() as u32;
     let mut m = a.clone();
     m.vertices.extend(&b.vertices);
-    m.triangles
-        .extend(b.triangles.iter().map(|t| t.map(|i| i + offset)));
+    m.triangles.extend(b.triangles.iter().map(|t| t.map(|i| i + offset)));
     m
 }
 
@@ -126,18 +116,9 @@ fn damaged(m: &Mesh, drop: usize) -> Mesh {
         .iter()
         .enumerate()
         .filter(|(t, _)| t % drop != drop / 2)
-        .map(|(t, &[a, b, c])| {
-            if (t * 7919) % 10 < 3 {
-                [a, c, b]
-            } else {
-                [a, b, c]
-            }
-        })
+        .map(|(t, &[a, b, c])| if (t * 7919) % 10 < 3 { [a, c, b] } else { [a, b, c] })
         .collect();
-    Mesh {
-        vertices: m.vertices.clone(),
-        triangles,
-    }
+    Mesh { vertices: m.vertices.clone(), triangles }
 }
 
 fn grid_for(mesh: &Mesh, n: usize) -> Grid {
@@ -180,14 +161,9 @@ fn a_sphere_is_solid_and_its_densities_add_up_to_its_volume() {
     let density = voxelize(&mesh, &grid, &VoxelizeOptions::default()).unwrap();
     assert!(check_against(&inside(&density), sphere_distance(c, r)) > 40 * 40 * 30);
     assert!(density.data.iter().all(|&d| (0.0..=1.0).contains(&d)));
-    let fractional: Vec<usize> = (0..grid.len())
-        .filter(|&i| density.data[i] > 0.0 && density.data[i] < 1.0)
-        .collect();
-    assert!(
-        fractional.len() > 1000,
-        "{} partial voxels",
-        fractional.len()
-    );
+    let fractional: Vec<usize> =
+        (0..grid.len()).filter(|&i| density.data[i] > 0.0 && density.data[i] < 1.0).collect();
+    assert!(fractional.len() > 1000, "{} partial voxels", fractional.len());
     for &i in &fractional {
         let d = sphere_distance(c, r)(grid.position(grid.voxel(i))) / grid.voxel_size;
         assert!(
@@ -207,10 +183,7 @@ fn a_sphere_is_solid_and_its_densities_add_up_to_its_volume() {
         .sum::<f64>()
         / grid.voxel_size.powi(3);
     let sum: f64 = density.data.iter().map(|&d| f64::from(d)).sum();
-    assert!(
-        (sum - exact).abs() < 0.005 * exact,
-        "densities sum to {sum}, volume {exact}"
-    );
+    assert!((sum - exact).abs() < 0.005 * exact, "densities sum to {sum}, volume {exact}");
 }
 
 #[test]
@@ -244,19 +217,12 @@ fn open_flipped_and_inverted_meshes_give_the_intact_solid() {
         ("open and inverted", inverted(&open)),
         ("inverted", inverted(&intact)),
         ("holes and 30% flipped", damaged(&intact, 97)),
-        (
-            "holes, 30% flipped, inverted",
-            inverted(&damaged(&intact, 97)),
-        ),
+        ("holes, 30% flipped, inverted", inverted(&damaged(&intact, 97))),
     ] {
         let got = solid(&mesh, &grid);
         // Where the cap is missing, the hole is closed across its rim: leave that band out.
         let capless = |p: DVec3| {
-            if p.z < -0.75 && name.starts_with("open") {
-                0.0
-            } else {
-                sphere_distance(c, r)(p)
-            }
+            if p.z < -0.75 && name.starts_with("open") { 0.0 } else { sphere_distance(c, r)(p) }
         };
         let checked = check_against(&got, capless);
         assert!(checked > 30000, "{name}");
@@ -264,10 +230,7 @@ fn open_flipped_and_inverted_meshes_give_the_intact_solid() {
         let compared: Vec<usize> = (0..grid.len())
             .filter(|&i| !name.starts_with("open") || grid.position(grid.voxel(i)).z >= -0.75)
             .collect();
-        let same = compared
-            .iter()
-            .filter(|&&i| got.data[i] == expect.data[i])
-            .count();
+        let same = compared.iter().filter(|&&i| got.data[i] == expect.data[i]).count();
         assert!(
             same as f64 > 0.998 * compared.len() as f64,
             "{name}: {same} of {} voxels agree",
@@ -283,10 +246,7 @@ fn overlapping_parts_unite_and_inner_shells_stay_hollow() {
     let grid = grid_for(&union, 40);
     let d = |p: DVec3| sphere_distance(a, 1.0)(p).max(sphere_distance(b, 1.0)(p));
     check_against(&solid(&union, &grid), d);
-    let hollow = merged(
-        &sphere(DVec3::ZERO, 2.0, 3),
-        &inverted(&sphere(DVec3::ZERO, 1.0, 3)),
-    );
+    let hollow = merged(&sphere(DVec3::ZERO, 2.0, 3), &inverted(&sphere(DVec3::ZERO, 1.0, 3)));
     let grid = grid_for(&hollow, 40);
     let d =
         |p: DVec3| sphere_distance(DVec3::ZERO, 2.0)(p).min(-sphere_distance(DVec3::ZERO, 1.0)(p));
@@ -297,11 +257,7 @@ fn overlapping_parts_unite_and_inner_shells_stay_hollow() {
 fn scaled_and_moved_meshes_give_the_same_volume_voxel_for_voxel() {
     let mesh = damaged(&torus(3.0, 1.2, 40, 24), 53);
     let far = Mesh {
-        vertices: mesh
-            .vertices
-            .iter()
-            .map(|&p| p * 1000.0 + DVec3::new(1e5, -2e5, 3e5))
-            .collect(),
+        vertices: mesh.vertices.iter().map(|&p| p * 1000.0 + DVec3::new(1e5, -2e5, 3e5)).collect(),
         triangles: mesh.triangles.clone(),
     };
     let (g1, g2) = (grid_for(&mesh, 36), grid_for(&far, 36));
@@ -333,18 +289,10 @@ fn the_triceratops_with_holes_and_flipped_faces_keeps_its_solid() {
     let intact = solid(&mesh, &grid);
     let sd = implicitize::distance::signed_distance(&intact);
     let broken = solid(&damaged(&mesh, 701), &grid);
-    let far: Vec<usize> = (0..grid.len())
-        .filter(|&i| sd.data[i].abs() > 1.0)
-        .collect();
+    let far: Vec<usize> = (0..grid.len()).filter(|&i| sd.data[i].abs() > 1.0).collect();
     assert!(far.len() > grid.len() / 2);
-    let differ = far
-        .iter()
-        .filter(|&&i| intact.data[i] != broken.data[i])
-        .count();
-    assert_eq!(
-        differ, 0,
-        "{differ} voxels more than a voxel from the surface differ"
-    );
+    let differ = far.iter().filter(|&&i| intact.data[i] != broken.data[i]).count();
+    assert_eq!(differ, 0, "{differ} voxels more than a voxel from the surface differ");
 }
 
 #[test]
@@ -363,10 +311,7 @@ fn bad_input_is_an_error_not_a_panic() {
     assert!(run(&bad, o).contains("triangle 5"));
     assert!(run(&good, VoxelizeOptions { supersampling: 4 }).contains("supersampling"));
     assert!(run(&good, VoxelizeOptions { supersampling: 0 }).contains("supersampling"));
-    let empty = Grid {
-        dims: [0, 4, 4],
-        ..grid
-    };
+    let empty = Grid { dims: [0, 4, 4], ..grid };
     assert!(voxelize(&good, &empty, &o).is_err());
 }
 
@@ -391,10 +336,6 @@ fn surface_points_of_a_voxelized_sphere_lie_on_it() {
         .collect();
     let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
     let worst = errors.iter().cloned().fold(0.0, f64::max);
-    assert!(
-        mean(&errors) < 0.06 && worst < 0.3,
-        "mean {} max {worst} voxels",
-        mean(&errors)
-    );
+    assert!(mean(&errors) < 0.06 && worst < 0.3, "mean {} max {worst} voxels", mean(&errors));
     assert!(mean(&errors) < 0.5 * mean(&centres));
 }

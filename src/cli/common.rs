@@ -30,7 +30,9 @@ impl GridArgs {
 
     /// The grid around `mesh`, whose file is `path`.
     pub fn grid_around(&self, mesh: &Mesh, path: &Path) -> anyhow::Result<Grid> {
-        let bounds = mesh.bounds().with_context(|| format!("{}: the mesh has no triangles", path.display()))?;
+        let bounds = mesh
+            .bounds()
+            .with_context(|| format!("{}: the mesh has no triangles", path.display()))?;
         Ok(Grid::around(&bounds, self.resolution())?)
     }
 }

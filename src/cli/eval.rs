@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use super::common::Progress;
 use clap::Args;
 use implicitize::{DVec3, Field, Model, npy, rbf};
 
@@ -21,9 +22,7 @@ pub struct EvalArgs {
 }
 
 fn read_points(path: &Path) -> anyhow::Result<(Vec<f64>, usize)> {
-    let csv = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    let csv = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
     Ok(if csv {
         let (columns, points) = rbf::read_points(path)?;
         (points, columns)
@@ -33,7 +32,7 @@ fn read_points(path: &Path) -> anyhow::Result<(Vec<f64>, usize)> {
 }
 
 /// Loads the model and the points, evaluates, and writes the values.
-pub fn run(args: &EvalArgs, quiet: bool) -> anyhow::Result<()> {
+pub fn run(args: &EvalArgs, progress: Progress) -> anyhow::Result<()> {
     let model = Model::load(&args.model)?;
     let (points, columns) = read_points(&args.points)?;
     let dim = model.implicit().map_or(3, |i| i.dim());
@@ -48,20 +47,15 @@ pub fn run(args: &EvalArgs, quiet: bool) -> anyhow::Result<()> {
     let values = match model.implicit() {
         Some(implicit) => implicit.values_flat(&points),
         None => model.values(
-            &points
-                .chunks_exact(3)
-                .map(|p| DVec3::new(p[0], p[1], p[2]))
-                .collect::<Vec<_>>(),
+            &points.chunks_exact(3).map(|p| DVec3::new(p[0], p[1], p[2])).collect::<Vec<_>>(),
         ),
     };
     let seconds = start.elapsed().as_secs_f64();
     npy::write(&args.output, &[values.len() as u64], &values)?;
-    if !quiet {
-        eprintln!(
-            "evaluated {} points in {seconds:.3} s; wrote {}",
-            values.len(),
-            args.output.display()
-        );
-    }
+    progress.line(format!(
+        "evaluated {} points in {seconds:.3} s; wrote {}",
+        values.len(),
+        args.output.display()
+    ));
     Ok(())
 }

@@ -84,8 +84,11 @@ pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
     let mesh = read_mesh(&args.mesh, progress)?;
     let mesh_bytes = std::fs::metadata(&args.mesh).ok().map(|m| m.len());
     let name = args.mesh.file_stem().map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
-    let outputs =
-        Outputs { model: &args.output, report: args.report.as_deref(), mesh: args.mesh_out.as_deref() };
+    let outputs = Outputs {
+        model: &args.output,
+        report: args.report.as_deref(),
+        mesh: args.mesh_out.as_deref(),
+    };
     fit_and_write(&mesh, &args.mesh, &name, mesh_bytes, &args.fit, &outputs, progress)
 }
 
@@ -163,5 +166,6 @@ fn fit_and_write(
 
 fn write_report(path: &Path, report: &FitReport) -> anyhow::Result<()> {
     let json = serde_json::to_string_pretty(report)?;
-    std::fs::write(path, json + "\n").with_context(|| format!("{}: cannot write the report", path.display()))
+    std::fs::write(path, json + "\n")
+        .with_context(|| format!("{}: cannot write the report", path.display()))
 }

@@ -8,11 +8,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod common;
+mod eval;
 mod fit;
 mod polygonize;
-mod volume;
-mod eval;
 mod solve;
+mod volume;
 
 /// Turn polygon meshes into compact, smooth variational implicit surfaces, and use them.
 #[derive(Debug, Parser)]
@@ -37,13 +37,11 @@ enum Command {
     Voxelize(volume::VolumeArgs),
     /// The signed distance of a mesh's voxelization, in voxels, inside positive (paper 4.2).
     Sdf(volume::VolumeArgs),
-}
     /// Solve for the implicit function through constraints in a CSV file, and save the model.
     Solve(solve::SolveArgs),
     /// Evaluate a model at points (inside positive, outside negative).
     Eval(eval::EvalArgs),
 }
-
 
 /// Parses the command line and runs it.
 pub fn run() -> ExitCode {
@@ -55,9 +53,8 @@ pub fn run() -> ExitCode {
         Command::Mesh(args) => polygonize::run(args, progress),
         Command::Voxelize(args) => volume::run(args, volume::VolumeKind::Density, progress),
         Command::Sdf(args) => volume::run(args, volume::VolumeKind::SignedDistance, progress),
-    let result: anyhow::Result<()> = match &cli.command {
-        Command::Solve(args) => solve::run(args, cli.quiet),
-        Command::Eval(args) => eval::run(args, cli.quiet),
+        Command::Solve(args) => solve::run(args, progress),
+        Command::Eval(args) => eval::run(args, progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

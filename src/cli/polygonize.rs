@@ -25,7 +25,8 @@ pub struct MeshCommand {
 pub fn run(args: &MeshCommand, progress: Progress) -> anyhow::Result<()> {
     let model = Model::load(&args.model)?;
     let grid = Grid::around(&model.bounds(), Resolution::LongestAxis(args.resolution))?;
-    progress.stage(format!("polygonizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
+    progress
+        .stage(format!("polygonizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let surface = polygonize::polygonize_field(&model, &grid);
     mesh::write(&args.output, &surface)?;
     progress.line(format!(

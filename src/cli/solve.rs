@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use super::common::Progress;
 use anyhow::Context;
 use clap::Args;
 use implicitize::rbf::read_constraints;
@@ -29,14 +30,11 @@ fn parse_kernel(name: &str) -> Result<Kernel, String> {
 }
 
 /// Reads the constraints, solves, and writes the model.
-pub fn run(args: &SolveArgs, quiet: bool) -> anyhow::Result<()> {
+pub fn run(args: &SolveArgs, progress: Progress) -> anyhow::Result<()> {
     let (dim, constraints) = read_constraints(&args.constraints)?;
     let start = Instant::now();
     let implicit = Implicit::solve(dim, args.kernel, &constraints).with_context(|| {
-        format!(
-            "{} (constraints are numbered by data row)",
-            args.constraints.display()
-        )
+        format!("{} (constraints are numbered by data row)", args.constraints.display())
     })?;
     let seconds = start.elapsed().as_secs_f64();
     let point = |p: &[f64]| DVec3::new(p[0], p[1], p.get(2).copied().unwrap_or(0.0));
@@ -44,13 +42,11 @@ pub fn run(args: &SolveArgs, quiet: bool) -> anyhow::Result<()> {
     let bounds = Aabb::of_points(&positions).context("no constraints")?;
     let residual = implicit.residual();
     Model::from_implicit(implicit, bounds, None).save(&args.output)?;
-    if !quiet {
-        eprintln!(
+    progress.line(format!(
             "solved {} constraints in {dim}D with {} in {seconds:.3} s, relative residual {residual:.2e}; wrote {}",
             constraints.len(),
             args.kernel,
             args.output.display()
-        );
-    }
+        ));
     Ok(())
 }

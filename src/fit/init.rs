@@ -25,9 +25,8 @@ pub fn initial_constraints(goal: &Goal, options: &FitOptions) -> Vec<FitConstrai
     for c in &boundary {
         let end = longer_extremum_path(&goal.sd, c.position);
         let value = f64::from(distance::sample(&goal.sd, end));
-        let far_enough = constraints
-            .iter()
-            .all(|o| o.position.distance(end) >= options.min_constraint_spacing);
+        let far_enough =
+            constraints.iter().all(|o| o.position.distance(end) >= options.min_constraint_spacing);
         if far_enough && value != 0.0 {
             constraints.push(FitConstraint { position: end, value, error: 0.0 });
         }

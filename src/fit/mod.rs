@@ -167,7 +167,9 @@ pub fn fit(
             best = Some((implicit, metrics, iteration));
         }
         let best_iteration = best.as_ref().map_or(iteration, |b| b.2);
-        if let Some(reason) = stop_reason(&metrics, iteration, best_iteration, constraints.len(), options) {
+        if let Some(reason) =
+            stop_reason(&metrics, iteration, best_iteration, constraints.len(), options)
+        {
             termination = reason;
             break;
         }
@@ -212,7 +214,12 @@ pub fn fit(
 }
 
 /// Evaluates `implicit` over the goal's grid (5.2) and measures it against the goal (4.3).
-fn measure(goal: &Goal, implicit: &Implicit, options: &FitOptions, timings: &mut Timings) -> Measured {
+fn measure(
+    goal: &Goal,
+    implicit: &Implicit,
+    options: &FitOptions,
+    timings: &mut Timings,
+) -> Measured {
     let clock = Instant::now();
     let values = rbf::evaluate_on_grid(implicit, goal.grid(), Some(&goal.sd));
     timings.implicit_evaluation += clock.elapsed().as_secs_f64();
@@ -223,15 +230,27 @@ fn measure(goal: &Goal, implicit: &Implicit, options: &FitOptions, timings: &mut
 
     let clock = Instant::now();
     let current_boundary = distance::boundary_voxels(&sd_current);
-    let current_rreg = metrics::radii_of_regularity(&sd_current, &current_boundary, &options.regularity);
+    let current_rreg =
+        metrics::radii_of_regularity(&sd_current, &current_boundary, &options.regularity);
     let current_fine = SubVoxel { values: &values, level: 0.0, sd: &sd_current, reach: 2.0 };
     let current_points = current_boundary
         .par_iter()
         .map(|v| current_fine.project(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)))
         .collect();
-    let goal_side =
-        BoundaryErrors::new(goal.boundary.clone(), goal.rreg.clone(), goal.surface.clone(), &sd_current, &current_fine);
-    let current_side = BoundaryErrors::new(current_boundary, current_rreg, current_points, &goal.sd, &goal.sub_voxel());
+    let goal_side = BoundaryErrors::new(
+        goal.boundary.clone(),
+        goal.rreg.clone(),
+        goal.surface.clone(),
+        &sd_current,
+        &current_fine,
+    );
+    let current_side = BoundaryErrors::new(
+        current_boundary,
+        current_rreg,
+        current_points,
+        &goal.sd,
+        &goal.sub_voxel(),
+    );
     let metrics = ErrorMetrics::measure(&goal_side, &current_side);
     timings.misc += clock.elapsed().as_secs_f64();
     Measured { metrics, goal_side, current_side }

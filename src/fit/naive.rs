@@ -59,7 +59,8 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
 fn naive_constraints(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Vec<FitConstraint> {
     let grid = goal.grid();
     let normals = vertex_normals(mesh);
-    let mut order: Vec<usize> = (0..mesh.vertices.len()).filter(|&v| normals[v] != DVec3::ZERO).collect();
+    let mut order: Vec<usize> =
+        (0..mesh.vertices.len()).filter(|&v| normals[v] != DVec3::ZERO).collect();
     order.shuffle(&mut ChaCha8Rng::seed_from_u64(options.seed));
     let mut boundary: Vec<FitConstraint> = Vec::new();
     let mut exterior: Vec<FitConstraint> = Vec::new();
@@ -68,7 +69,8 @@ fn naive_constraints(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Vec<FitC
             break;
         }
         let position = grid.to_grid(mesh.vertices[v]);
-        if boundary.iter().all(|c| c.position.distance(position) >= options.min_constraint_spacing) {
+        if boundary.iter().all(|c| c.position.distance(position) >= options.min_constraint_spacing)
+        {
             boundary.push(FitConstraint { position, value: 0.0, error: 0.0 });
             let outside = position + normals[v] * NORMAL_OFFSET;
             exterior.push(FitConstraint { position: outside, value: -NORMAL_OFFSET, error: 0.0 });

@@ -74,7 +74,12 @@ pub struct IterationReport {
 
 impl IterationReport {
     /// The report of one iteration.
-    pub fn new(iteration: usize, constraints: ConstraintCounts, metrics: ErrorMetrics, timings_s: Timings) -> Self {
+    pub fn new(
+        iteration: usize,
+        constraints: ConstraintCounts,
+        metrics: ErrorMetrics,
+        timings_s: Timings,
+    ) -> Self {
         IterationReport {
             iteration,
             constraints,

@@ -26,11 +26,7 @@ pub(super) struct Builder<'p> {
 impl<'p> Builder<'p> {
     /// An empty mesh read from `path` (named in every error).
     pub fn new(path: &'p Path) -> Self {
-        Builder {
-            path,
-            vertices: Vec::new(),
-            triangles: Vec::new(),
-        }
+        Builder { path, vertices: Vec::new(), triangles: Vec::new() }
     }
 
     /// The number of vertices added so far.
@@ -77,15 +73,11 @@ impl<'p> Builder<'p> {
         if corners.len() < 3 {
             return Err(self.error(
                 at,
-                format!(
-                    "a face needs at least 3 corners, this one has {}",
-                    corners.len()
-                ),
+                format!("a face needs at least 3 corners, this one has {}", corners.len()),
             ));
         }
         let first = corners[0];
-        self.triangles
-            .extend(corners[1..].windows(2).map(|w| [first, w[0], w[1]]));
+        self.triangles.extend(corners[1..].windows(2).map(|w| [first, w[0], w[1]]));
         Ok(())
     }
 
@@ -96,20 +88,11 @@ impl<'p> Builder<'p> {
 
     /// Drops degenerate triangles and checks that what is left is a mesh with volume.
     pub fn finish(self) -> Result<(Mesh, ReadReport)> {
-        let Builder {
-            path,
-            vertices,
-            mut triangles,
-        } = self;
+        let Builder { path, vertices, mut triangles } = self;
         let read = triangles.len();
         triangles.retain(|t| !is_degenerate(&vertices, *t));
-        let report = ReadReport {
-            degenerate_dropped: read - triangles.len(),
-        };
-        let mesh = Mesh {
-            vertices,
-            triangles,
-        };
+        let report = ReadReport { degenerate_dropped: read - triangles.len() };
+        let mesh = Mesh { vertices, triangles };
         let invalid = |message: String| Error::invalid(path.display().to_string(), message);
         let Some(bounds) = mesh.bounds() else {
             return Err(invalid(if read == 0 {
@@ -141,9 +124,7 @@ fn is_degenerate(vertices: &[DVec3], [i, j, k]: [u32; 3]) -> bool {
         return true;
     }
     let [a, b, c] = [i, j, k].map(|v| vertices[v as usize]);
-    let longest = (b - a)
-        .length_squared()
-        .max((c - b).length_squared())
-        .max((a - c).length_squared());
+    let longest =
+        (b - a).length_squared().max((c - b).length_squared()).max((a - c).length_squared());
     (b - a).cross(c - a).length() <= ZERO_AREA * longest
 }

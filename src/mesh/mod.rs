@@ -68,12 +68,7 @@ impl Mesh {
     /// The bounding box of the vertices that some triangle uses, or `None` for a mesh with no
     /// triangles.
     pub fn bounds(&self) -> Option<Aabb> {
-        Aabb::of_points(
-            self.triangles
-                .iter()
-                .flatten()
-                .map(|&i| &self.vertices[i as usize]),
-        )
+        Aabb::of_points(self.triangles.iter().flatten().map(|&i| &self.vertices[i as usize]))
     }
 
     /// The three corners of triangle `t`.
@@ -112,10 +107,7 @@ impl Format {
     /// An error naming the file when the extension is missing or not one of `obj`, `ply`,
     /// `stl`, `off`.
     pub fn from_path(path: &Path) -> Result<Format> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         match ext.as_deref() {
             Some("obj") => Ok(Format::Obj),
             Some("ply") => Ok(Format::Ply),
@@ -175,19 +167,13 @@ pub fn write(path: &Path, mesh: &Mesh) -> Result<()> {
         Format::Stl => stl::write(&mut out, mesh),
         Format::Off => off::write(&mut out, mesh),
     };
-    written
-        .and_then(|()| out.flush())
-        .map_err(|e| Error::io(path, e))
+    written.and_then(|()| out.flush()).map_err(|e| Error::io(path, e))
 }
 
 /// Checks that every triangle indexes an existing vertex, so the writers can index freely.
 fn check_indices(mesh: &Mesh, path: &Path) -> Result<()> {
     let n = mesh.vertices.len();
-    match mesh
-        .triangles
-        .iter()
-        .position(|t| t.iter().any(|&i| i as usize >= n))
-    {
+    match mesh.triangles.iter().position(|t| t.iter().any(|&i| i as usize >= n)) {
         None => Ok(()),
         Some(t) => Err(Error::invalid(
             path.display().to_string(),

@@ -58,10 +58,7 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
 fn read_corner(token: &[u8], defined: usize) -> std::result::Result<u32, String> {
     let mut parts = token.split(|&b| b == b'/');
     let position = parts.next().and_then(parse::<i64>);
-    let others_ok = parts
-        .by_ref()
-        .take(2)
-        .all(|p| p.is_empty() || parse::<i64>(p).is_some());
+    let others_ok = parts.by_ref().take(2).all(|p| p.is_empty() || parse::<i64>(p).is_some());
     let (Some(i), true, None) = (position, others_ok, parts.next()) else {
         return Err(format!(
             "face corner '{}' is not of the form v, v/vt, v//vn or v/vt/vn with integer indices",

@@ -31,18 +31,15 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
         |what: String| Error::parse(path, Some(last), format!("truncated: the file ends {what}"));
     let mut mesh = Builder::new(path);
     let mut lines = lines.into_iter();
-    let (at, first) = lines
-        .next()
-        .ok_or_else(|| truncated("before the 'OFF' header".into()))?;
+    let (at, first) = lines.next().ok_or_else(|| truncated("before the 'OFF' header".into()))?;
     let mut counts_at = at;
     let mut counts_tokens: Vec<&[u8]> = text::tokens(first).collect();
     if counts_tokens[0].ends_with(b"OFF") {
         check_keyword(&counts_tokens).map_err(|m| mesh.error(at, m))?;
         counts_tokens.remove(0);
         if counts_tokens.is_empty() {
-            let (at, line) = lines
-                .next()
-                .ok_or_else(|| truncated("before the counts line".into()))?;
+            let (at, line) =
+                lines.next().ok_or_else(|| truncated("before the counts line".into()))?;
             counts_at = at;
             counts_tokens = text::tokens(line).collect();
         }
@@ -59,9 +56,8 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
     }
     let mut corners = Vec::new();
     for k in 0..face_count {
-        let (at, line) = lines
-            .next()
-            .ok_or_else(|| truncated(format!("after {k} of {face_count} faces")))?;
+        let (at, line) =
+            lines.next().ok_or_else(|| truncated(format!("after {k} of {face_count} faces")))?;
         corners.clear();
         for index in face(line).map_err(|m| mesh.error(at, m))? {
             corners.push(mesh.corner(index, vertex_count, at)?);
@@ -76,10 +72,7 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
 fn check_keyword(tokens: &[&[u8]]) -> std::result::Result<(), String> {
     let keyword = tokens[0];
     let prefix = &keyword[..keyword.len() - 3];
-    if tokens
-        .get(1)
-        .is_some_and(|t| t.eq_ignore_ascii_case(b"BINARY"))
-    {
+    if tokens.get(1).is_some_and(|t| t.eq_ignore_ascii_case(b"BINARY")) {
         return Err("binary OFF is not supported; convert it to text OFF, PLY or STL".into());
     }
     let known = [&b""[..], b"C", b"N", b"CN", b"ST", b"STC", b"STN", b"STCN"];
@@ -111,10 +104,8 @@ fn counts(tokens: &[&[u8]]) -> std::result::Result<(usize, usize), String> {
 /// The vertex indices of a face line `n i1 ... in [colour]`.
 fn face(line: &[u8]) -> std::result::Result<Vec<i64>, String> {
     let mut tokens = text::tokens(line);
-    let n: usize = tokens
-        .next()
-        .and_then(parse)
-        .ok_or("a face line must start with its number of corners")?;
+    let n: usize =
+        tokens.next().and_then(parse).ok_or("a face line must start with its number of corners")?;
     let indices: Vec<i64> = tokens.take(n).map_while(parse).collect();
     if indices.len() < n {
         return Err(format!(

@@ -101,31 +101,17 @@ fn as_number(property: &Property) -> Option<f64> {
 pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
     let parser = Parser::<Element>::new();
     let mut reader = Reader::new(bytes);
-    let header = parser
-        .read_header(&mut reader)
-        .map_err(|e| header_error(path, &e))?;
+    let header = parser.read_header(&mut reader).map_err(|e| header_error(path, &e))?;
     let body = reader.into_inner();
     let vertex_count = check_header(&header, path)?;
-    let header_lines = bytes[..bytes.len() - body.len()]
-        .iter()
-        .filter(|&&b| b == b'\n')
-        .count();
-    let mut payload = Payload {
-        parser,
-        encoding: header.encoding,
-        file: bytes,
-        rest: body,
-        line: header_lines,
-    };
+    let header_lines = bytes[..bytes.len() - body.len()].iter().filter(|&&b| b == b'\n').count();
+    let mut payload =
+        Payload { parser, encoding: header.encoding, file: bytes, rest: body, line: header_lines };
     let mut mesh = Builder::new(path);
     let mut corners = Vec::new();
     // An element without properties takes no bytes (and, in ASCII, blank lines, which are
     // skipped anyway): skip it rather than count through however many the header claims.
-    for (name, def) in header
-        .elements
-        .iter()
-        .filter(|(_, d)| !d.properties.is_empty())
-    {
+    for (name, def) in header.elements.iter().filter(|(_, d)| !d.properties.is_empty()) {
         for i in 0..def.count {
             let (element, at) = payload.next(def).map_err(|(at, message)| {
                 mesh.error(at, format!("{name} {i} of {}: {message}", def.count))
@@ -157,14 +143,10 @@ fn check_header(header: &Header, path: &Path) -> Result<usize> {
         match vertex.properties.get(axis).map(|p| &p.data_type) {
             Some(PropertyType::Scalar(_)) => {}
             Some(PropertyType::List(..)) => {
-                return Err(error(format!(
-                    "vertex property '{axis}' is a list, not a number"
-                )));
+                return Err(error(format!("vertex property '{axis}' is a list, not a number")));
             }
             None => {
-                return Err(error(format!(
-                    "the vertex element has no '{axis}' property"
-                )));
+                return Err(error(format!("the vertex element has no '{axis}' property")));
             }
         }
     }
@@ -172,9 +154,7 @@ fn check_header(header: &Header, path: &Path) -> Result<usize> {
         let list = INDEX_LISTS.iter().find_map(|n| face.properties.get(*n));
         match list.map(|p| &p.data_type) {
             Some(PropertyType::List(_, ScalarType::Float | ScalarType::Double)) => {
-                return Err(error(
-                    "the face index list holds floating-point numbers".into(),
-                ));
+                return Err(error("the face index list holds floating-point numbers".into()));
             }
             Some(PropertyType::List(..)) => {}
             _ => {
@@ -191,10 +171,7 @@ fn check_header(header: &Header, path: &Path) -> Result<usize> {
 fn header_error(path: &Path, e: &ParseError) -> Error {
     let text = e.to_string();
     let message = match e.line() {
-        Some(n) => text
-            .strip_prefix(&format!("Line {n}: "))
-            .unwrap_or(&text)
-            .to_string(),
+        Some(n) => text.strip_prefix(&format!("Line {n}: ")).unwrap_or(&text).to_string(),
         None => text,
     };
     Error::parse(path, e.line().map(Location::Line), one_line(&message))
@@ -260,11 +237,7 @@ impl Payload<'_> {
                     "truncated: the file ends before this element".into(),
                 ));
             }
-            let end = self
-                .rest
-                .iter()
-                .position(|&b| b == b'\n')
-                .map_or(self.rest.len(), |p| p + 1);
+            let end = self.rest.iter().position(|&b| b == b'\n').map_or(self.rest.len(), |p| p + 1);
             let (line, rest) = self.rest.split_at(end);
             self.rest = rest;
             self.line += 1;
@@ -292,17 +265,11 @@ struct Out {
 
 impl PropertyAccess for Out {
     fn new() -> Self {
-        Out {
-            position: [0.0; 3],
-            corners: [0; 3],
-        }
+        Out { position: [0.0; 3], corners: [0; 3] }
     }
 
     fn get_double(&self, name: &str) -> Option<f64> {
-        ["x", "y", "z"]
-            .iter()
-            .position(|&a| a == name)
-            .map(|axis| self.position[axis])
+        ["x", "y", "z"].iter().position(|&a| a == name).map(|axis| self.position[axis])
     }
 
     fn get_list_uint(&self, name: &str) -> Option<&[u32]> {
@@ -315,10 +282,9 @@ pub(super) fn write(out: &mut impl Write, mesh: &Mesh) -> io::Result<()> {
     let mut vertex = ElementDef::new("vertex".into());
     vertex.count = mesh.vertices.len();
     for axis in ["x", "y", "z"] {
-        vertex.properties.add(PropertyDef::new(
-            axis.into(),
-            PropertyType::Scalar(ScalarType::Double),
-        ));
+        vertex
+            .properties
+            .add(PropertyDef::new(axis.into(), PropertyType::Scalar(ScalarType::Double)));
     }
     let mut face = ElementDef::new("face".into());
     face.count = mesh.triangles.len();

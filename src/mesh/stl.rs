@@ -36,9 +36,8 @@ const RECORD: u64 = 50;
 
 /// Reads an STL file's bytes; `path` names the file in messages.
 pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
-    let declared = bytes
-        .get(80..84)
-        .map(|c| u64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]])));
+    let declared =
+        bytes.get(80..84).map(|c| u64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]])));
     let size = bytes.len() as u64;
     if declared.is_some_and(|n| HEADER + RECORD * n == size) {
         return read_binary(bytes, path);
@@ -82,10 +81,7 @@ struct Welded<'p> {
 
 impl<'p> Welded<'p> {
     fn new(path: &'p Path) -> Self {
-        Welded {
-            builder: Builder::new(path),
-            index: HashMap::new(),
-        }
+        Welded { builder: Builder::new(path), index: HashMap::new() }
     }
 
     /// The index of the vertex at `p` (read at `at`), added if it is new.
@@ -105,10 +101,7 @@ impl<'p> Welded<'p> {
 /// Reads a binary STL whose size matches its header.
 fn read_binary(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
     let mut mesh = Welded::new(path);
-    for (t, record) in bytes[HEADER as usize..]
-        .chunks_exact(RECORD as usize)
-        .enumerate()
-    {
+    for (t, record) in bytes[HEADER as usize..].chunks_exact(RECORD as usize).enumerate() {
         let start = HEADER + RECORD * t as u64;
         let mut corners = [0; 3];
         for (k, corner) in corners.iter_mut().enumerate() {
@@ -160,10 +153,7 @@ fn read_ascii(bytes: &[u8], mesh: &mut Welded) -> Result<()> {
                 return Err(error(format!("'{}' inside a facet", show(&keyword))));
             }
             (_, _) => {
-                return Err(error(format!(
-                    "unexpected '{}' in ASCII STL",
-                    show(&keyword)
-                )));
+                return Err(error(format!("unexpected '{}' in ASCII STL", show(&keyword))));
             }
         }
     }
@@ -181,10 +171,7 @@ pub(super) fn write(out: &mut impl Write, mesh: &Mesh) -> io::Result<()> {
         let [a, b, c] = mesh.corners(t);
         let normal = (b - a).cross(c - a).normalize_or_zero();
         let f32s = |p: DVec3| stl_io::Vector::new(p.as_vec3().to_array());
-        stl_io::Triangle {
-            normal: f32s(normal),
-            vertices: [f32s(a), f32s(b), f32s(c)],
-        }
+        stl_io::Triangle { normal: f32s(normal), vertices: [f32s(a), f32s(b), f32s(c)] }
     });
     stl_io::write_stl(out, triangles)
 }

@@ -7,10 +7,7 @@ use crate::error::Location;
 
 /// The file's lines, numbered from 1, without their `\n` (a `\r` before it is whitespace).
 pub(super) fn lines(bytes: &[u8]) -> impl Iterator<Item = (Location, &[u8])> {
-    bytes
-        .split(|&b| b == b'\n')
-        .enumerate()
-        .map(|(n, line)| (Location::Line(n + 1), line))
+    bytes.split(|&b| b == b'\n').enumerate().map(|(n, line)| (Location::Line(n + 1), line))
 }
 
 /// A line without its `#` comment.
@@ -20,8 +17,7 @@ pub(super) fn strip_comment(line: &[u8]) -> &[u8] {
 
 /// The whitespace-separated tokens of a line.
 pub(super) fn tokens(line: &[u8]) -> impl Iterator<Item = &[u8]> {
-    line.split(u8::is_ascii_whitespace)
-        .filter(|t| !t.is_empty())
+    line.split(u8::is_ascii_whitespace).filter(|t| !t.is_empty())
 }
 
 /// A token parsed as a number (or anything else `FromStr`), if it is one.

@@ -70,31 +70,19 @@ fn inside<T: Sample>(value: T, iso: T) -> bool {
 pub(super) fn crossing<T: Sample>(a: T, b: T, iso: T) -> f64 {
     let (a, b, iso): (f64, f64, f64) = (a.into(), b.into(), iso.into());
     let t = (iso - a) / (b - a);
-    if t.is_nan() {
-        0.5
-    } else {
-        t.clamp(END_MARGIN, 1.0 - END_MARGIN)
-    }
+    if t.is_nan() { 0.5 } else { t.clamp(END_MARGIN, 1.0 - END_MARGIN) }
 }
 
 /// Extracts the iso-surface of `volume` at `iso` (inside is `>= iso`).
 pub(super) fn extract<T: Sample>(volume: &Volume<T>, iso: T) -> Surface {
     let grid = &volume.grid;
-    assert_eq!(
-        volume.data.len(),
-        grid.len(),
-        "a volume must hold one value per voxel of its grid"
-    );
+    assert_eq!(volume.data.len(), grid.len(), "a volume must hold one value per voxel of its grid");
     let [nx, ny, nz] = grid.dims;
     if nx < 2 || ny < 2 || nz < 2 {
         return Surface::default();
     }
     let signs = Signs::of(volume, iso);
-    let slab = Slabber {
-        volume,
-        iso,
-        signs: &signs,
-    };
+    let slab = Slabber { volume, iso, signs: &signs };
     let count = (rayon::current_num_threads() * 4).clamp(1, nx - 1);
     let slabs: Vec<SlabSurface> = (0..count)
         .into_par_iter()
@@ -117,17 +105,15 @@ impl Signs {
         let nz = volume.grid.dims[2];
         let words = nz.div_ceil(64);
         let mut bits = vec![0u64; volume.data.len() / nz * words];
-        bits.par_chunks_mut(words)
-            .zip(volume.data.par_chunks(nz))
-            .for_each(|(row_bits, row)| {
-                for (word, values) in row_bits.iter_mut().zip(row.chunks(64)) {
-                    let mut w = 0u64;
-                    for (b, &v) in values.iter().enumerate() {
-                        w |= (inside(v, iso) as u64) << b;
-                    }
-                    *word = w;
+        bits.par_chunks_mut(words).zip(volume.data.par_chunks(nz)).for_each(|(row_bits, row)| {
+            for (word, values) in row_bits.iter_mut().zip(row.chunks(64)) {
+                let mut w = 0u64;
+                for (b, &v) in values.iter().enumerate() {
+                    w |= (inside(v, iso) as u64) << b;
                 }
-            });
+                *word = w;
+            }
+        });
         Signs { words, bits }
     }
 
@@ -237,11 +223,8 @@ impl<T: Sample> Slabber<'_, T> {
     fn march(&self, i0: usize, i1: usize) -> SlabSurface {
         let [nx, ny, nz] = self.grid().dims;
         let plane = ny * nz;
-        let mut out = SlabSurface {
-            vertices: Vec::new(),
-            triangles: Vec::new(),
-            first_layer: Vec::new(),
-        };
+        let mut out =
+            SlabSurface { vertices: Vec::new(), triangles: Vec::new(), first_layer: Vec::new() };
         let mut layer = vec![0u32; 3 * plane];
         let mut next = vec![0u32; 3 * plane];
         let mut across = vec![0u32; 4 * plane];
@@ -253,11 +236,7 @@ impl<T: Sample> Slabber<'_, T> {
             if next_is_ours {
                 self.make_vertices(i + 1, &IN_PLANE, &mut next, &mut out.vertices);
             }
-            let maps = [
-                &layer[..],
-                &across[..],
-                if next_is_ours { &next[..] } else { &[] },
-            ];
+            let maps = [&layer[..], &across[..], if next_is_ours { &next[..] } else { &[] }];
             self.march_layer(i, maps, &mut out.triangles);
             std::mem::swap(&mut layer, &mut next);
         }
@@ -428,26 +407,13 @@ fn stitch(slabs: Vec<SlabSurface>) -> Surface {
         nv += s.vertices.len();
         nt += s.triangles.len();
     }
-    assert!(
-        nv <= u32::MAX as usize,
-        "too many surface vertices for u32 indices"
-    );
+    assert!(nv <= u32::MAX as usize, "too many surface vertices for u32 indices");
     let mut triangles = vec![[0u32; 3]; nt];
-    let mut vertices = vec![
-        EdgeVertex {
-            position: DVec3::ZERO,
-            base: 0,
-            direction: 0
-        };
-        nv
-    ];
+    let mut vertices = vec![EdgeVertex { position: DVec3::ZERO, base: 0, direction: 0 }; nv];
     let triangle_parts = split_by(&mut triangles, slabs.iter().map(|s| s.triangles.len()));
     let vertex_parts = split_by(&mut vertices, slabs.iter().map(|s| s.vertices.len()));
-    triangle_parts
-        .into_par_iter()
-        .zip(vertex_parts)
-        .enumerate()
-        .for_each(|(n, (triangles, vertices))| {
+    triangle_parts.into_par_iter().zip(vertex_parts).enumerate().for_each(
+        |(n, (triangles, vertices))| {
             let own = vertex_start[n] as u32;
             let resolve = |v: u32| {
                 if v & EXTERNAL == 0 {
@@ -461,11 +427,9 @@ fn stitch(slabs: Vec<SlabSurface>) -> Surface {
                 *out = t.map(resolve);
             }
             vertices.copy_from_slice(&slabs[n].vertices);
-        });
-    Surface {
-        vertices,
-        triangles,
-    }
+        },
+    );
+    Surface { vertices, triangles }
 }
 
 /// Splits `items` into consecutive parts of the given lengths.

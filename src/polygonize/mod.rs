@@ -92,16 +92,10 @@ fn sample<F: Field + ?Sized>(field: &F, grid: &Grid) -> Volume<f64> {
     let mut start = 0;
     while start < grid.len() {
         let end = (start + SAMPLE_CHUNK).min(grid.len());
-        let points: Vec<DVec3> = (start..end)
-            .into_par_iter()
-            .map(|n| grid.position(grid.voxel(n)))
-            .collect();
+        let points: Vec<DVec3> =
+            (start..end).into_par_iter().map(|n| grid.position(grid.voxel(n))).collect();
         let values = field.values(&points);
-        assert_eq!(
-            values.len(),
-            points.len(),
-            "Field::values must return one value per point"
-        );
+        assert_eq!(values.len(), points.len(), "Field::values must return one value per point");
         data.extend(values);
         start = end;
     }

@@ -39,11 +39,7 @@ impl Bracket {
     fn estimate(&self) -> f64 {
         let (lo, hi) = (self.t_in.min(self.t_out), self.t_in.max(self.t_out));
         let t = self.t_out + self.g_out * (self.t_in - self.t_out) / (self.g_out - self.g_in);
-        if t >= lo && t <= hi {
-            t
-        } else {
-            0.5 * (lo + hi)
-        }
+        if t >= lo && t <= hi { t } else { 0.5 * (lo + hi) }
     }
 
     /// Narrows the bracket with the value `g` at `t`.
@@ -78,11 +74,8 @@ pub(super) fn refine<F: Field + ?Sized>(
     vertices: &mut [EdgeVertex],
 ) {
     let grid = &samples.grid;
-    let mut open: Vec<Bracket> = vertices
-        .par_iter()
-        .enumerate()
-        .map(|(n, v)| initial_bracket(n, v, samples))
-        .collect();
+    let mut open: Vec<Bracket> =
+        vertices.par_iter().enumerate().map(|(n, v)| initial_bracket(n, v, samples)).collect();
     let mut closed = Vec::with_capacity(open.len());
     for _ in 0..MAX_STEPS {
         if open.is_empty() {
@@ -95,11 +88,7 @@ pub(super) fn refine<F: Field + ?Sized>(
             .map(|(b, &t)| edge_point(grid, &vertices[b.vertex], t))
             .collect();
         let values = field.values(&points);
-        assert_eq!(
-            values.len(),
-            points.len(),
-            "Field::values must return one value per point"
-        );
+        assert_eq!(values.len(), points.len(), "Field::values must return one value per point");
         open.par_iter_mut()
             .zip(steps.par_iter().zip(values.par_iter()))
             .for_each(|(b, (&t, &g))| b.update(t, g));
@@ -126,19 +115,8 @@ fn initial_bracket(vertex: usize, v: &EdgeVertex, samples: &Volume<f64>) -> Brac
     let d = |bit: u8| (v.direction >> bit & 1) as usize;
     let a = samples.data[v.base];
     let b = samples.data[grid.index([i + d(0), j + d(1), k + d(2)])];
-    let (t_in, g_in, t_out, g_out) = if a >= 0.0 {
-        (0.0, a, 1.0, b)
-    } else {
-        (1.0, b, 0.0, a)
-    };
-    Bracket {
-        vertex,
-        t_in,
-        g_in,
-        t_out,
-        g_out,
-        last: 0,
-    }
+    let (t_in, g_in, t_out, g_out) = if a >= 0.0 { (0.0, a, 1.0, b) } else { (1.0, b, 0.0, a) };
+    Bracket { vertex, t_in, g_in, t_out, g_out, last: 0 }
 }
 
 /// The point at parameter `t` along a vertex's edge, in the mesh's units.

@@ -18,14 +18,8 @@ use std::sync::LazyLock;
 use crate::geometry::DVec3;
 
 /// The six tetrahedra of a cube, as corner numbers along the path `0 → a → a|b → 7`.
-pub(super) const TETRAHEDRA: [[u8; 4]; 6] = [
-    [0, 1, 3, 7],
-    [0, 1, 5, 7],
-    [0, 2, 3, 7],
-    [0, 2, 6, 7],
-    [0, 4, 5, 7],
-    [0, 4, 6, 7],
-];
+pub(super) const TETRAHEDRA: [[u8; 4]; 6] =
+    [[0, 1, 3, 7], [0, 1, 5, 7], [0, 2, 3, 7], [0, 2, 6, 7], [0, 4, 5, 7], [0, 4, 6, 7]];
 
 /// An edge of the split as `base * 8 + direction`, both 3-bit corner/axis masks.
 pub(super) type EdgeId = u8;
@@ -49,11 +43,7 @@ pub(super) const fn edge_direction(e: EdgeId) -> u8 {
 
 /// The offset of a corner or direction mask as a vector.
 pub(super) fn offset(mask: u8) -> DVec3 {
-    DVec3::new(
-        (mask & 1) as f64,
-        ((mask >> 1) & 1) as f64,
-        ((mask >> 2) & 1) as f64,
-    )
+    DVec3::new((mask & 1) as f64, ((mask >> 1) & 1) as f64, ((mask >> 2) & 1) as f64)
 }
 
 /// A surface piece inside one tetrahedron: a triangle (`len == 3`) or a quad (`len == 4`),
@@ -89,11 +79,7 @@ fn build_table() -> CaseTable {
     let mut pieces = Vec::new();
     for (case, first) in start.iter_mut().take(256).enumerate() {
         *first = pieces.len() as u16;
-        pieces.extend(
-            TETRAHEDRA
-                .iter()
-                .filter_map(|tet| tetrahedron_piece(tet, case as u8)),
-        );
+        pieces.extend(TETRAHEDRA.iter().filter_map(|tet| tetrahedron_piece(tet, case as u8)));
     }
     start[256] = pieces.len() as u16;
     CaseTable { start, pieces }
@@ -110,12 +96,9 @@ fn tetrahedron_piece(tet: &[u8; 4], case: u8) -> Option<Piece> {
             vec![edge_id(*a, *b), edge_id(*a, *c), edge_id(*a, *d)]
         }
         // Consecutive quad corners share a tetrahedron corner, so this is a cycle.
-        ([a, b], [c, d]) => vec![
-            edge_id(*a, *c),
-            edge_id(*a, *d),
-            edge_id(*b, *d),
-            edge_id(*b, *c),
-        ],
+        ([a, b], [c, d]) => {
+            vec![edge_id(*a, *c), edge_id(*a, *d), edge_id(*b, *d), edge_id(*b, *c)]
+        }
         _ => return None,
     };
     let centroid = |cs: &[u8]| cs.iter().map(|&c| offset(c)).sum::<DVec3>() / cs.len() as f64;
@@ -123,20 +106,15 @@ fn tetrahedron_piece(tet: &[u8; 4], case: u8) -> Option<Piece> {
     if piece_normal(&edges).dot(outward) < 0.0 {
         edges.reverse();
     }
-    let mut piece = Piece {
-        edges: [0; 4],
-        len: edges.len() as u8,
-    };
+    let mut piece = Piece { edges: [0; 4], len: edges.len() as u8 };
     piece.edges[..edges.len()].copy_from_slice(&edges);
     Some(piece)
 }
 
 /// The area vector of a triangle or quad through the midpoints of its edges.
 fn piece_normal(edges: &[EdgeId]) -> DVec3 {
-    let q: Vec<DVec3> = edges
-        .iter()
-        .map(|&e| offset(edge_base(e)) + 0.5 * offset(edge_direction(e)))
-        .collect();
+    let q: Vec<DVec3> =
+        edges.iter().map(|&e| offset(edge_base(e)) + 0.5 * offset(edge_direction(e))).collect();
     match q.as_slice() {
         [a, b, c] => (*b - *a).cross(*c - *a),
         [a, b, c, d] => (*c - *a).cross(*d - *b),

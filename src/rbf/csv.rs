@@ -15,10 +15,8 @@ const AXES: [&str; 4] = ["x", "y", "z", "t"];
 pub fn read_constraints(path: &Path) -> Result<(usize, Vec<Constraint>)> {
     let (columns, rows) = read_table(path, true)?;
     let dim = columns - 1;
-    let constraints = rows
-        .chunks_exact(columns)
-        .map(|r| Constraint::new(&r[..dim], r[dim]))
-        .collect();
+    let constraints =
+        rows.chunks_exact(columns).map(|r| Constraint::new(&r[..dim], r[dim])).collect();
     Ok((dim, constraints))
 }
 
@@ -41,18 +39,11 @@ fn header(dim: usize, value: bool) -> Vec<&'static str> {
 fn read_table(path: &Path, value: bool) -> Result<(usize, Vec<f64>)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     let text = std::str::from_utf8(&bytes).map_err(|e| {
-        let line = bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count()
-            + 1;
+        let line = bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() + 1;
         Error::parse(path, Some(Location::Line(line)), "not UTF-8 text")
     })?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim()))
-        .filter(|(_, l)| !l.is_empty());
+    let mut lines =
+        text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).filter(|(_, l)| !l.is_empty());
     let expected: Vec<String> = (2..=4).map(|d| header(d, value).join(",")).collect();
     let Some((header_line, first)) = lines.next() else {
         return Err(Error::parse(
@@ -61,10 +52,7 @@ fn read_table(path: &Path, value: bool) -> Result<(usize, Vec<f64>)> {
             format!("empty file: expected a header line such as {}", expected[1]),
         ));
     };
-    let names: Vec<String> = first
-        .split(',')
-        .map(|s| s.trim().to_ascii_lowercase())
-        .collect();
+    let names: Vec<String> = first.split(',').map(|s| s.trim().to_ascii_lowercase()).collect();
     if !(2..=4).any(|d| names == header(d, value)) {
         return Err(Error::parse(
             path,
@@ -84,11 +72,7 @@ fn read_table(path: &Path, value: bool) -> Result<(usize, Vec<f64>)> {
             return Err(Error::parse(
                 path,
                 at,
-                format!(
-                    "{} fields, expected {columns} ({})",
-                    fields.len(),
-                    names.join(",")
-                ),
+                format!("{} fields, expected {columns} ({})", fields.len(), names.join(",")),
             ));
         }
         for (field, name) in fields.iter().zip(&names) {
@@ -96,11 +80,7 @@ fn read_table(path: &Path, value: bool) -> Result<(usize, Vec<f64>)> {
                 Error::parse(path, at, format!("{name} is not a number: {field:?}"))
             })?;
             if !v.is_finite() {
-                return Err(Error::parse(
-                    path,
-                    at,
-                    format!("{name} is not finite: {field:?}"),
-                ));
+                return Err(Error::parse(path, at, format!("{name} is not finite: {field:?}")));
             }
             rows.push(v);
         }

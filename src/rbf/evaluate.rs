@@ -65,11 +65,7 @@ impl Phi for ThinPlate {
     #[inline(always)]
     fn phi<A: Arith>(r2: f64) -> f64 {
         // ln(0) is -inf; clamping to the smallest normal gives 0 * -708 = 0 instead of NaN.
-        let x = if r2 < f64::MIN_POSITIVE {
-            f64::MIN_POSITIVE
-        } else {
-            r2
-        };
+        let x = if r2 < f64::MIN_POSITIVE { f64::MIN_POSITIVE } else { r2 };
         0.5 * r2 * ln::<A>(x)
     }
 }
@@ -161,9 +157,7 @@ fn block<const D: usize, K: Phi, A: Arith>(c: &Centres, x: &[[f64; LANES]; D]) -
 fn run<const D: usize, K: Phi, A: Arith>(c: &Centres, points: &[Vec<f64>; D], out: &mut [f64]) {
     for (b, o) in out.chunks_mut(LANES).enumerate() {
         let x: [[f64; LANES]; D] = std::array::from_fn(|a| {
-            points[a][b * LANES..(b + 1) * LANES]
-                .try_into()
-                .expect("whole blocks")
+            points[a][b * LANES..(b + 1) * LANES].try_into().expect("whole blocks")
         });
         let v = block::<D, K, A>(c, &x);
         o.copy_from_slice(&v[..o.len()]);
@@ -287,42 +281,33 @@ fn values_dim<const D: usize, K: Phi>(
     count: usize,
     point: &(impl Fn(usize, &mut [f64]) + Sync),
 ) -> Vec<f64> {
-    let weights: Vec<f64> = implicit
-        .weights
-        .iter()
-        .map(|d| d * K::WEIGHT_SCALE)
-        .collect();
-    let centres = Centres {
-        centres: &implicit.centres,
-        weights: &weights,
-    };
+    let weights: Vec<f64> = implicit.weights.iter().map(|d| d * K::WEIGHT_SCALE).collect();
+    let centres = Centres { centres: &implicit.centres, weights: &weights };
     let poly = &implicit.polynomial;
     let mut out = vec![0.0; count];
-    out.par_chunks_mut(CHUNK)
-        .enumerate()
-        .for_each(|(chunk, out)| {
-            let start = chunk * CHUNK;
-            let padded = out.len().div_ceil(LANES) * LANES;
-            let mut points: [Vec<f64>; D] = std::array::from_fn(|_| vec![0.0; padded]);
-            let mut raw = [0.0; D];
-            let mut x = [0.0; D];
-            for i in 0..out.len() {
-                raw.fill(0.0);
-                point(start + i, &mut raw);
-                implicit.normalization.apply(&raw, &mut x);
-                let mut p = poly[0];
-                for a in 0..D {
-                    points[a][i] = x[a];
-                    p += poly[a + 1] * x[a];
-                }
-                out[i] = p;
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(chunk, out)| {
+        let start = chunk * CHUNK;
+        let padded = out.len().div_ceil(LANES) * LANES;
+        let mut points: [Vec<f64>; D] = std::array::from_fn(|_| vec![0.0; padded]);
+        let mut raw = [0.0; D];
+        let mut x = [0.0; D];
+        for i in 0..out.len() {
+            raw.fill(0.0);
+            point(start + i, &mut raw);
+            implicit.normalization.apply(&raw, &mut x);
+            let mut p = poly[0];
+            for a in 0..D {
+                points[a][i] = x[a];
+                p += poly[a + 1] * x[a];
             }
-            let mut radial = vec![0.0; out.len()];
-            dispatch::<D, K>(isa, &centres, &points, &mut radial);
-            for (o, r) in out.iter_mut().zip(radial) {
-                *o += r;
-            }
-        });
+            out[i] = p;
+        }
+        let mut radial = vec![0.0; out.len()];
+        dispatch::<D, K>(isa, &centres, &points, &mut radial);
+        for (o, r) in out.iter_mut().zip(radial) {
+            *o += r;
+        }
+    });
     out
 }
 
@@ -358,8 +343,7 @@ pub(super) fn gradient_at(implicit: &Implicit, x: &[f64]) -> Vec<f64> {
         }
     }
     // x' = (x - m) / s, so d/dx = (1 / s) d/dx'.
-    g.iter_mut()
-        .for_each(|v| *v /= implicit.normalization.scale);
+    g.iter_mut().for_each(|v| *v /= implicit.normalization.scale);
     g
 }
 
@@ -372,25 +356,13 @@ mod tests {
         let mut x = f64::MIN_POSITIVE;
         while x < 1e300 {
             let split = std::f64::consts::SQRT_2;
-            for y in [
-                x,
-                x * 1.1,
-                x * split * (1.0 - 1e-12),
-                x * split * (1.0 + 1e-12),
-                x * 1.99,
-            ] {
+            for y in [x, x * 1.1, x * split * (1.0 - 1e-12), x * split * (1.0 + 1e-12), x * 1.99] {
                 let want = y.ln();
                 let got = ln::<Separate>(y);
                 let fused = ln::<Fused>(y);
                 let tol = 4.0 * f64::EPSILON * want.abs().max(1e-300);
-                assert!(
-                    (got - want).abs() <= tol.max(1e-300),
-                    "ln({y}) = {got}, want {want}"
-                );
-                assert!(
-                    (fused - want).abs() <= tol.max(1e-300),
-                    "ln({y}) = {fused}, want {want}"
-                );
+                assert!((got - want).abs() <= tol.max(1e-300), "ln({y}) = {got}, want {want}");
+                assert!((fused - want).abs() <= tol.max(1e-300), "ln({y}) = {fused}, want {want}");
             }
             x *= 3.7;
         }
@@ -415,11 +387,7 @@ mod isa_tests {
         let mut constraints = Vec::new();
         for i in 0..60 {
             let t = i as f64 * 0.7;
-            let p = [
-                t.cos() * (1.0 + 0.1 * t.sin()),
-                t.sin(),
-                (0.3 * t).cos() * 0.8,
-            ];
+            let p = [t.cos() * (1.0 + 0.1 * t.sin()), t.sin(), (0.3 * t).cos() * 0.8];
             constraints.push(Constraint::new(
                 &p,
                 if i % 3 == 0 { 0.5 } else { 0.0 } - 0.1 * (i % 2) as f64,
@@ -427,9 +395,8 @@ mod isa_tests {
         }
         for kernel in [Kernel::ThinPlate, Kernel::Cubic, Kernel::Linear] {
             let implicit = Implicit::solve(3, kernel, &constraints).unwrap();
-            let points: Vec<[f64; 3]> = (0..37)
-                .map(|i| [0.05 * i as f64 - 0.9, 0.3, -0.2 + 0.01 * i as f64])
-                .collect();
+            let points: Vec<[f64; 3]> =
+                (0..37).map(|i| [0.05 * i as f64 - 0.9, 0.3, -0.2 + 0.01 * i as f64]).collect();
             let scalar: Vec<f64> = points.iter().map(|p| scalar_value(&implicit, p)).collect();
             for isa in [Isa::Baseline, Isa::Avx2, Isa::Avx512] {
                 if !isa.supported() {
@@ -454,13 +421,9 @@ mod isa_tests {
         let mut xn = [0.0; 3];
         implicit.normalization.apply(x, &mut xn);
         let mut f = implicit.polynomial[0]
-            + (0..3)
-                .map(|a| implicit.polynomial[a + 1] * xn[a])
-                .sum::<f64>();
+            + (0..3).map(|a| implicit.polynomial[a + 1] * xn[a]).sum::<f64>();
         for j in 0..n {
-            let r2: f64 = (0..3)
-                .map(|a| (xn[a] - implicit.centres[a * n + j]).powi(2))
-                .sum();
+            let r2: f64 = (0..3).map(|a| (xn[a] - implicit.centres[a * n + j]).powi(2)).sum();
             f += implicit.weights[j] * implicit.kernel.phi_of_r2(r2);
         }
         f

@@ -66,11 +66,7 @@ impl Axis {
     fn locate(&self, i: usize) -> (usize, f64) {
         let (c, _) = self.cells_of(i);
         let (lo, hi) = self.span(c);
-        let t = if hi > lo {
-            (i - lo) as f64 / (hi - lo) as f64
-        } else {
-            0.0
-        };
+        let t = if hi > lo { (i - lo) as f64 / (hi - lo) as f64 } else { 0.0 };
         (c, t)
     }
 }
@@ -102,19 +98,13 @@ pub fn evaluate_on_grid<F: Field + ?Sized>(
     goal_sd: Option<&Volume<f32>>,
 ) -> Volume<f32> {
     if let Some(goal) = goal_sd {
-        assert_eq!(
-            goal.grid.dims, grid.dims,
-            "the goal volume must be on the evaluation grid"
-        );
+        assert_eq!(goal.grid.dims, grid.dims, "the goal volume must be on the evaluation grid");
     }
     let axes = grid.dims.map(Axis::new);
     let coarse = coarse_values(field, grid, &axes);
     let flagged = flag_cells(grid, &axes, &coarse, goal_sd);
     let exact = exact_voxels(grid, &axes, &flagged);
-    let positions: Vec<DVec3> = exact
-        .par_iter()
-        .map(|&v| grid.position(grid.voxel(v)))
-        .collect();
+    let positions: Vec<DVec3> = exact.par_iter().map(|&v| grid.position(grid.voxel(v))).collect();
     let exact_values = field.values(&positions);
     let mut data = interpolate(grid, &axes, &coarse);
     for (&v, &value) in exact.iter().zip(&exact_values) {
@@ -141,18 +131,11 @@ fn coarse_values<F: Field + ?Sized>(field: &F, grid: &Grid, axes: &[Axis; 3]) ->
     let positions: Vec<DVec3> = (0..dims[0] * dims[1] * dims[2])
         .into_par_iter()
         .map(|s| {
-            let (a, b, c) = (
-                s / (dims[1] * dims[2]),
-                (s / dims[2]) % dims[1],
-                s % dims[2],
-            );
+            let (a, b, c) = (s / (dims[1] * dims[2]), (s / dims[2]) % dims[1], s % dims[2]);
             grid.position([axes[0].nodes[a], axes[1].nodes[b], axes[2].nodes[c]])
         })
         .collect();
-    Coarse {
-        dims,
-        values: field.values(&positions),
-    }
+    Coarse { dims, values: field.values(&positions) }
 }
 
 /// Whether each coarse cell must be sampled finely, C order over the cell indices.
@@ -166,11 +149,7 @@ fn flag_cells(
     (0..cells[0] * cells[1] * cells[2])
         .into_par_iter()
         .map(|s| {
-            let cell = [
-                s / (cells[1] * cells[2]),
-                (s / cells[2]) % cells[1],
-                s % cells[2],
-            ];
+            let cell = [s / (cells[1] * cells[2]), (s / cells[2]) % cells[1], s % cells[2]];
             let spans = [0, 1, 2].map(|a| axes[a].span(cell[a]));
             sign_changes(coarse, axes, cell) || goal_sd.is_some_and(|g| near_goal(grid, g, spans))
         })
@@ -201,10 +180,7 @@ fn near_goal(grid: &Grid, goal: &Volume<f32>, spans: [(usize, usize); 3]) -> boo
     for i in spans[0].0..=spans[0].1 {
         for j in spans[1].0..=spans[1].1 {
             let row = grid.index([i, j, 0]);
-            if goal.data[row + spans[2].0..=row + spans[2].1]
-                .iter()
-                .any(|v| v.abs() <= NEAR_GOAL)
-            {
+            if goal.data[row + spans[2].0..=row + spans[2].1].iter().any(|v| v.abs() <= NEAR_GOAL) {
                 return true;
             }
         }
@@ -228,12 +204,10 @@ fn exact_voxels(grid: &Grid, axes: &[Axis; 3], flagged: &[bool]) -> Vec<usize> {
     (0..nx)
         .into_par_iter()
         .flat_map_iter(|i| {
-            (0..ny)
-                .flat_map(move |j| (0..nz).map(move |k| [i, j, k]))
-                .filter_map(move |v| {
-                    let sample = (0..3).all(|a| axes[a].node_of(v[a]).is_some());
-                    (!sample && is_flagged(v)).then(|| grid.index(v))
-                })
+            (0..ny).flat_map(move |j| (0..nz).map(move |k| [i, j, k])).filter_map(move |v| {
+                let sample = (0..3).all(|a| axes[a].node_of(v[a]).is_some());
+                (!sample && is_flagged(v)).then(|| grid.index(v))
+            })
         })
         .collect()
 }
@@ -245,33 +219,31 @@ fn interpolate(grid: &Grid, axes: &[Axis; 3], coarse: &Coarse) -> Vec<f32> {
         [0, 1, 2].map(|a| (0..grid.dims[a]).map(|i| axes[a].locate(i)).collect());
     let last = coarse.dims.map(|d| d - 1);
     let mut data = vec![0.0f32; grid.len()];
-    data.par_chunks_mut(ny * nz)
-        .enumerate()
-        .for_each(|(i, slab)| {
-            let (a, ta) = locate[0][i];
-            for j in 0..ny {
-                let (b, tb) = locate[1][j];
-                for k in 0..nz {
-                    let (c, tc) = locate[2][k];
-                    let mut v = 0.0;
-                    for (da, wa) in [(0, 1.0 - ta), (1, ta)] {
-                        for (db, wb) in [(0, 1.0 - tb), (1, tb)] {
-                            for (dc, wc) in [(0, 1.0 - tc), (1, tc)] {
-                                let w = wa * wb * wc;
-                                if w != 0.0 {
-                                    let s = [
-                                        (a + da).min(last[0]),
-                                        (b + db).min(last[1]),
-                                        (c + dc).min(last[2]),
-                                    ];
-                                    v += w * coarse.at(s);
-                                }
+    data.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
+        let (a, ta) = locate[0][i];
+        for j in 0..ny {
+            let (b, tb) = locate[1][j];
+            for k in 0..nz {
+                let (c, tc) = locate[2][k];
+                let mut v = 0.0;
+                for (da, wa) in [(0, 1.0 - ta), (1, ta)] {
+                    for (db, wb) in [(0, 1.0 - tb), (1, tb)] {
+                        for (dc, wc) in [(0, 1.0 - tc), (1, tc)] {
+                            let w = wa * wb * wc;
+                            if w != 0.0 {
+                                let s = [
+                                    (a + da).min(last[0]),
+                                    (b + db).min(last[1]),
+                                    (c + dc).min(last[2]),
+                                ];
+                                v += w * coarse.at(s);
                             }
                         }
                     }
-                    slab[j * nz + k] = v as f32;
                 }
+                slab[j * nz + k] = v as f32;
             }
-        });
+        }
+    });
     data
 }

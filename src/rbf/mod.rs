@@ -92,9 +92,7 @@ impl Kernel {
 
     /// The kernel named `name` (`r2logr`, `r3` or `r`).
     pub fn from_name(name: &str) -> Option<Kernel> {
-        [Kernel::ThinPlate, Kernel::Cubic, Kernel::Linear]
-            .into_iter()
-            .find(|k| k.name() == name)
+        [Kernel::ThinPlate, Kernel::Cubic, Kernel::Linear].into_iter().find(|k| k.name() == name)
     }
 
     /// `phi(r)`, written as a function of `r^2` so that no square root is needed for
@@ -166,10 +164,7 @@ impl Constraint {
     /// A constraint at `position` with `value`. The number of coordinates is checked against
     /// the dimension, and every number for being finite, by [`Implicit::solve`].
     pub fn new(position: &[f64], value: f64) -> Constraint {
-        Constraint {
-            position: position.to_vec(),
-            value,
-        }
+        Constraint { position: position.to_vec(), value }
     }
 
     /// The position.
@@ -331,11 +326,7 @@ impl Implicit {
             return bad("the model has no centres".into());
         }
         if weights.len() != constraints.len() {
-            return bad(format!(
-                "{} weights for {} centres",
-                weights.len(),
-                constraints.len()
-            ));
+            return bad(format!("{} weights for {} centres", weights.len(), constraints.len()));
         }
         if polynomial.len() != dim + 1 {
             return bad(format!(

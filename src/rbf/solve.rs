@@ -96,10 +96,7 @@ pub(super) fn check_constraints(
     constraints: &[Constraint],
 ) -> Result<()> {
     if !DIMENSIONS.contains(&dim) {
-        return Err(Error::invalid(
-            context,
-            format!("dimension {dim} is not 2, 3 or 4"),
-        ));
+        return Err(Error::invalid(context, format!("dimension {dim} is not 2, 3 or 4")));
     }
     for (i, c) in constraints.iter().enumerate() {
         if c.position.len() != dim {
@@ -150,9 +147,7 @@ fn normalization(dim: usize, constraints: &[Constraint]) -> Result<Normalization
         let axis = constraints.iter().map(|c| c.position[a]);
         let (lo, hi) = axis
             .clone()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                (lo.min(v), hi.max(v))
-            });
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
         // Summing positions relative to the low corner keeps the centroid exact for meshes far
         // from the origin.
         *t = lo + axis.map(|v| v - lo).sum::<f64>() / n as f64;
@@ -222,9 +217,8 @@ fn check_separation(
 /// determined: the singular values of the centred positions must not vanish.
 fn check_affine_span(dim: usize, centres: &[f64]) -> Result<()> {
     let n = centres.len() / dim;
-    let mean: Vec<f64> = (0..dim)
-        .map(|a| centres[a * n..(a + 1) * n].iter().sum::<f64>() / n as f64)
-        .collect();
+    let mean: Vec<f64> =
+        (0..dim).map(|a| centres[a * n..(a + 1) * n].iter().sum::<f64>() / n as f64).collect();
     let x = Mat::from_fn(n, dim, |j, a| centres[a * n + j] - mean[a]);
     let sigma = x.singular_values().map_err(|_| too_few(dim, n))?;
     let largest = sigma.iter().cloned().fold(0.0, f64::max);
@@ -243,9 +237,8 @@ pub(super) fn system_matrix(dim: usize, kernel: Kernel, centres: &[f64]) -> Mat<
     a.par_col_iter_mut().enumerate().for_each(|(j, mut col)| {
         if j < n {
             for i in 0..n {
-                let r2: f64 = (0..dim)
-                    .map(|ax| (centres[ax * n + i] - centres[ax * n + j]).powi(2))
-                    .sum();
+                let r2: f64 =
+                    (0..dim).map(|ax| (centres[ax * n + i] - centres[ax * n + j]).powi(2)).sum();
                 col[i] = kernel.phi_of_r2(r2);
             }
             col[n] = 1.0;
@@ -294,32 +287,16 @@ fn solve_system(dim: usize, kernel: Kernel, centres: &[f64], values: &[f64]) -> 
 /// every value is zero; evaluated with the same code as any other point. NaN if the solve
 /// produced a non-finite number.
 fn interpolation_residual(implicit: &Implicit) -> f64 {
-    let points: Vec<f64> = implicit
-        .constraints
-        .par_iter()
-        .flat_map_iter(|c| c.position.clone())
-        .collect();
+    let points: Vec<f64> =
+        implicit.constraints.par_iter().flat_map_iter(|c| c.position.clone()).collect();
     let values = implicit.values_flat(&points);
-    let reference = implicit
-        .constraints
-        .iter()
-        .map(|c| c.value.abs())
-        .fold(0.0, f64::max);
-    let reference = if reference > 0.0 {
-        reference
-    } else {
-        implicit.normalization.scale
-    };
-    let worst = values
-        .iter()
-        .zip(&implicit.constraints)
-        .map(|(v, c)| (v - c.value).abs())
-        .fold(0.0, |w: f64, e| {
-            if e.is_nan() || w.is_nan() {
-                f64::NAN
-            } else {
-                w.max(e)
-            }
-        });
+    let reference = implicit.constraints.iter().map(|c| c.value.abs()).fold(0.0, f64::max);
+    let reference = if reference > 0.0 { reference } else { implicit.normalization.scale };
+    let worst = values.iter().zip(&implicit.constraints).map(|(v, c)| (v - c.value).abs()).fold(
+        0.0,
+        |w: f64, e| {
+            if e.is_nan() || w.is_nan() { f64::NAN } else { w.max(e) }
+        },
+    );
     worst / reference
 }

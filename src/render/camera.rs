@@ -49,10 +49,7 @@ impl Camera {
         check_size(width, height)?;
         if !(bounds.min.is_finite() && bounds.max.is_finite()) || bounds.min.cmpgt(bounds.max).any()
         {
-            return Err(Error::invalid(
-                "camera",
-                format!("cannot frame the box {bounds:?}"),
-            ));
+            return Err(Error::invalid("camera", format!("cannot frame the box {bounds:?}")));
         }
         if !(azimuth_deg.is_finite() && elevation_deg.is_finite()) {
             return Err(Error::invalid(
@@ -63,11 +60,8 @@ impl Camera {
         let (az, el) = (azimuth_deg.to_radians(), elevation_deg.to_radians());
         let towards_eye = DVec3::new(el.cos() * az.sin(), el.sin(), el.cos() * az.cos());
         let forward = -towards_eye;
-        let up_hint = if forward.y.abs() > 0.999 {
-            DVec3::new(0.0, 0.0, -forward.y)
-        } else {
-            DVec3::Y
-        };
+        let up_hint =
+            if forward.y.abs() > 0.999 { DVec3::new(0.0, 0.0, -forward.y) } else { DVec3::Y };
         let right = forward.cross(up_hint).normalize();
         let up = right.cross(forward);
         let tan_half_y = (Self::FIELD_OF_VIEW_DEG.to_radians() * 0.5).tan();
@@ -79,21 +73,9 @@ impl Camera {
         let mut distance = 1.01 * radius;
         for i in 0..8 {
             let corner = DVec3::new(
-                if i & 1 == 0 {
-                    bounds.min.x
-                } else {
-                    bounds.max.x
-                },
-                if i & 2 == 0 {
-                    bounds.min.y
-                } else {
-                    bounds.max.y
-                },
-                if i & 4 == 0 {
-                    bounds.min.z
-                } else {
-                    bounds.max.z
-                },
+                if i & 1 == 0 { bounds.min.x } else { bounds.max.x },
+                if i & 2 == 0 { bounds.min.y } else { bounds.max.y },
+                if i & 4 == 0 { bounds.min.z } else { bounds.max.z },
             );
             let v = corner - center;
             let depth = v.dot(forward);
@@ -149,11 +131,7 @@ impl Camera {
         let depth = v.dot(self.forward);
         let sx = v.dot(self.right) / (depth * self.tan_half_x);
         let sy = v.dot(self.up) / (depth * self.tan_half_y);
-        (
-            (sx + 1.0) * 0.5 * self.width as f64,
-            (1.0 - sy) * 0.5 * self.height as f64,
-            depth,
-        )
+        ((sx + 1.0) * 0.5 * self.width as f64, (1.0 - sy) * 0.5 * self.height as f64, depth)
     }
 
     /// The direction towards the key light: above and to the left of the eye, so shapes are

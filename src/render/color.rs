@@ -34,11 +34,7 @@ pub(crate) fn scalar_color(value: f32, range: (f32, f32)) -> DVec3 {
         return NO_VALUE;
     }
     let t = ((value - range.0) / (range.1 - range.0)).clamp(0.0, 1.0) as f64;
-    if t < 0.5 {
-        RED.lerp(YELLOW, 2.0 * t)
-    } else {
-        YELLOW.lerp(GREEN, 2.0 * t - 1.0)
-    }
+    if t < 0.5 { RED.lerp(YELLOW, 2.0 * t) } else { YELLOW.lerp(GREEN, 2.0 * t - 1.0) }
 }
 
 /// What a surface point looks like.
@@ -54,11 +50,7 @@ pub(crate) enum Surface {
 /// direction `ray`. The normal is turned towards the eye first, so both sides of an open or
 /// inconsistently oriented mesh are lit alike.
 pub(crate) fn shade(surface: Surface, normal: DVec3, ray: DVec3, camera: &Camera) -> [u8; 4] {
-    let n = if normal.dot(ray) > 0.0 {
-        -normal
-    } else {
-        normal
-    };
+    let n = if normal.dot(ray) > 0.0 { -normal } else { normal };
     let color = match surface {
         Surface::Colored(Coloring::Normals) => (n + DVec3::ONE) * 0.5,
         Surface::Colored(Coloring::Plain) => lit(MATERIAL, n, ray, camera.light()),
@@ -80,9 +72,5 @@ fn lit(base: DVec3, n: DVec3, ray: DVec3, light: DVec3) -> DVec3 {
 /// inside being positive), or the reverse ray direction where the gradient vanishes.
 pub(crate) fn field_normal(gradient: DVec3, ray: DVec3) -> DVec3 {
     let n = -gradient.normalize_or_zero();
-    if n == DVec3::ZERO || !n.is_finite() {
-        -ray
-    } else {
-        n
-    }
+    if n == DVec3::ZERO || !n.is_finite() { -ray } else { n }
 }

@@ -23,11 +23,7 @@ pub struct Image {
 impl Image {
     /// A transparent picture.
     pub fn empty(width: usize, height: usize) -> Image {
-        Image {
-            width,
-            height,
-            rgba: vec![0; width * height * 4],
-        }
+        Image { width, height, rgba: vec![0; width * height * 4] }
     }
 
     /// The pixel at column `x`, row `y`, or `None` outside the picture (or past the end of a
@@ -37,12 +33,7 @@ impl Image {
             return None;
         }
         let i = (y * self.width + x) * 4;
-        Some([
-            self.rgba[i],
-            self.rgba[i + 1],
-            self.rgba[i + 2],
-            self.rgba[i + 3],
-        ])
+        Some([self.rgba[i], self.rgba[i + 1], self.rgba[i + 2], self.rgba[i + 3]])
     }
 
     /// Which pixels show a surface (the silhouette mask), row by row.
@@ -59,12 +50,7 @@ impl Image {
         let mut out = Image::empty(width, height);
         let mut left = 0;
         for im in images.iter().filter(|im| im.width > 0) {
-            for (y, row) in im
-                .rgba
-                .chunks_exact(im.width * 4)
-                .take(im.height)
-                .enumerate()
-            {
+            for (y, row) in im.rgba.chunks_exact(im.width * 4).take(im.height).enumerate() {
                 let start = (y * width + left) * 4;
                 out.rgba[start..start + row.len()].copy_from_slice(row);
             }
@@ -86,10 +72,7 @@ impl Image {
         let (width, height) = match (u32::try_from(self.width), u32::try_from(self.height)) {
             (Ok(w), Ok(h)) => (w, h),
             _ => {
-                return Err(Error::invalid(
-                    path.display().to_string(),
-                    "the picture is too large",
-                ));
+                return Err(Error::invalid(path.display().to_string(), "the picture is too large"));
             }
         };
         let file = File::create(path).map_err(|e| Error::io(path, e))?;

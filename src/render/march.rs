@@ -118,11 +118,8 @@ impl Lattice {
             ));
         }
         let step = longest / march.cells.next_multiple_of(BLOCK) as f64;
-        let cells = [size.x, size.y, size.z].map(|s| {
-            ((s / step).ceil() as usize + 4)
-                .next_multiple_of(BLOCK)
-                .max(BLOCK)
-        });
+        let cells = [size.x, size.y, size.z]
+            .map(|s| ((s / step).ceil() as usize + 4).next_multiple_of(BLOCK).max(BLOCK));
         let extent = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64) * step;
         let points = (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1);
         let mut lattice = Lattice {
@@ -155,11 +152,8 @@ impl Lattice {
         for (p, v) in points.iter().zip(values) {
             let i = self.point_index(*p);
             // A value that is not a number counts as outside; the sign is all the march reads.
-            self.values[i] = if v.is_nan() {
-                -f32::MAX
-            } else {
-                (v as f32).clamp(-f32::MAX, f32::MAX)
-            };
+            self.values[i] =
+                if v.is_nan() { -f32::MAX } else { (v as f32).clamp(-f32::MAX, f32::MAX) };
         }
         self.samples += points.len();
     }
@@ -168,11 +162,7 @@ impl Lattice {
     /// (bit 2 = x, bit 1 = y, bit 0 = z).
     fn corners(&self, [i, j, k]: [usize; 3], stride: usize) -> [f32; 8] {
         std::array::from_fn(|c| {
-            let p = [
-                i + stride * (c >> 2),
-                j + stride * ((c >> 1) & 1),
-                k + stride * (c & 1),
-            ];
+            let p = [i + stride * (c >> 2), j + stride * ((c >> 1) & 1), k + stride * (c & 1)];
             self.values[self.point_index(p)]
         })
     }
@@ -201,9 +191,7 @@ impl Lattice {
             // The centre sample also splits a cell whose corners straddle a thin part.
             let centre = self.values[self.point_index(c.0.map(|x| x + BLOCK / 2))];
             let v = self.corners(c.0, BLOCK);
-            let (lo, hi) = v
-                .iter()
-                .fold((centre, centre), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+            let (lo, hi) = v.iter().fold((centre, centre), |(lo, hi), &x| (lo.min(x), hi.max(x)));
             c.1 = if (centre > 0.0) != (v[0] > 0.0) {
                 f32::INFINITY
             } else {
@@ -262,11 +250,7 @@ impl Lattice {
     /// The parameter range along the ray `eye + t * dir` inside the lattice box.
     fn clip(&self, eye: DVec3, dir: DVec3) -> Option<(f64, f64)> {
         let q = self.local(eye);
-        let n = DVec3::new(
-            self.cells[0] as f64,
-            self.cells[1] as f64,
-            self.cells[2] as f64,
-        );
+        let n = DVec3::new(self.cells[0] as f64, self.cells[1] as f64, self.cells[2] as f64);
         let d = dir / self.step;
         let inv = d.recip();
         let (a, b) = ((-q) * inv, (n - q) * inv);
@@ -305,22 +289,12 @@ impl Lattice {
         let corner = [at(0), at(1), at(2)];
         let f =
             (q - DVec3::new(corner[0] as f64, corner[1] as f64, corner[2] as f64)) / BLOCK as f64;
-        if trilinear(
-            &self.corners(corner, BLOCK),
-            f.clamp(DVec3::ZERO, DVec3::ONE),
-        ) <= 0.0
-        {
+        if trilinear(&self.corners(corner, BLOCK), f.clamp(DVec3::ZERO, DVec3::ONE)) <= 0.0 {
             return None;
         }
-        let n = DVec3::new(
-            self.cells[0] as f64,
-            self.cells[1] as f64,
-            self.cells[2] as f64,
-        );
+        let n = DVec3::new(self.cells[0] as f64, self.cells[1] as f64, self.cells[2] as f64);
         let gaps = [q.x, q.y, q.z, n.x - q.x, n.y - q.y, n.z - q.z];
-        let face = (0..6)
-            .min_by(|&a, &b| gaps[a].total_cmp(&gaps[b]))
-            .unwrap_or(0);
+        let face = (0..6).min_by(|&a, &b| gaps[a].total_cmp(&gaps[b])).unwrap_or(0);
         let mut normal = DVec3::ZERO;
         normal[face % 3] = if face < 3 { -1.0 } else { 1.0 };
         Some(normal)
@@ -344,19 +318,11 @@ impl Lattice {
         let dt = (t1 - t0) / SUB_STEPS as f64;
         let mut a = (t0, g(t0));
         for s in 1..=SUB_STEPS {
-            let tb = if s == SUB_STEPS {
-                t1
-            } else {
-                t0 + s as f64 * dt
-            };
+            let tb = if s == SUB_STEPS { t1 } else { t0 + s as f64 * dt };
             let b = (tb, g(tb));
             if a.1 <= 0.0 && b.1 > 0.0 {
                 let (t, slope) = regula_falsi(g, a, b);
-                return Some(Probe::Root {
-                    t,
-                    slope,
-                    span: (t0, t1),
-                });
+                return Some(Probe::Root { t, slope, span: (t0, t1) });
             }
             a = b;
         }
@@ -370,11 +336,7 @@ enum Probe {
     /// The inside reaches the box face with this outward normal.
     Cap(DVec3),
     /// The interpolant's root at `t`, its slope there, and the cell's parameter span.
-    Root {
-        t: f64,
-        slope: f64,
-        span: (f64, f64),
-    },
+    Root { t: f64, slope: f64, span: (f64, f64) },
 }
 
 fn changes_sign(v: &[f32; 8]) -> bool {
@@ -502,10 +464,7 @@ pub(crate) fn march<F: Field + ?Sized>(
         })
         .collect();
     let ray = |i: usize| camera.ray(i % width, i / width);
-    let at: Vec<DVec3> = roots
-        .par_iter()
-        .map(|&(i, t, ..)| eye + t * ray(i))
-        .collect();
+    let at: Vec<DVec3> = roots.par_iter().map(|&(i, t, ..)| eye + t * ray(i)).collect();
     let values = field.values(&at);
     let mut image = Image::empty(width, height);
     let pixels: Vec<(usize, [u8; 4])> = roots
@@ -513,11 +472,7 @@ pub(crate) fn march<F: Field + ?Sized>(
         .zip(values)
         .map(|(&(i, t, slope, (lo, hi)), value)| {
             let step = -value / slope;
-            let t = if step.is_finite() {
-                (t + step).clamp(lo, hi)
-            } else {
-                t
-            };
+            let t = if step.is_finite() { (t + step).clamp(lo, hi) } else { t };
             let dir = ray(i);
             let normal = field_normal(field.gradient(eye + t * dir), dir);
             (i, shade(surface, normal, dir, camera))

@@ -93,11 +93,7 @@ pub fn render_mesh_scalars(
     if scalars.len() != mesh.vertices.len() {
         return Err(Error::invalid(
             "render",
-            format!(
-                "{} scalars for a mesh of {} vertices",
-                scalars.len(),
-                mesh.vertices.len()
-            ),
+            format!("{} scalars for a mesh of {} vertices", scalars.len(), mesh.vertices.len()),
         ));
     }
     if !(range.0.is_finite() && range.1.is_finite() && range.0 < range.1) {
@@ -110,11 +106,5 @@ pub fn render_mesh_scalars(
         ));
     }
     let base = Surface::Colored(Coloring::Plain);
-    Ok(raster::rasterize(
-        mesh,
-        camera,
-        base,
-        Shading::Smooth,
-        Some((scalars, range)),
-    ))
+    Ok(raster::rasterize(mesh, camera, base, Shading::Smooth, Some((scalars, range))))
 }

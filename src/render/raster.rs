@@ -72,12 +72,8 @@ pub(crate) fn rasterize(
     }
     let vertex_normals = (shading == Shading::Smooth).then(|| vertex_normals(mesh));
     let mut image = Image::empty(width, height);
-    image
-        .rgba
-        .par_chunks_mut(BAND * width * 4)
-        .zip(&bands)
-        .enumerate()
-        .for_each(|(b, (pixels, band))| {
+    image.rgba.par_chunks_mut(BAND * width * 4).zip(&bands).enumerate().for_each(
+        |(b, (pixels, band))| {
             let top = b * BAND;
             let rows = pixels.len() / (width * 4);
             let mut nearest: Vec<Option<Fragment>> = vec![None; rows * width];
@@ -91,18 +87,13 @@ pub(crate) fn rasterize(
                 let normal = match &vertex_normals {
                     Some(normals) => {
                         let n = interpolate(f.weights, corners.map(|v| normals[v]));
-                        n.try_normalize()
-                            .unwrap_or_else(|| face_normal(mesh, f.triangle))
+                        n.try_normalize().unwrap_or_else(|| face_normal(mesh, f.triangle))
                     }
                     None => face_normal(mesh, f.triangle),
                 };
                 let surface = match scalars {
                     Some((values, range)) => {
-                        let s = f
-                            .weights
-                            .iter()
-                            .zip(corners)
-                            .map(|(w, v)| w * values[v] as f64);
+                        let s = f.weights.iter().zip(corners).map(|(w, v)| w * values[v] as f64);
                         Surface::Base(scalar_color(s.sum::<f64>() as f32, range))
                     }
                     None => surface,
@@ -110,17 +101,15 @@ pub(crate) fn rasterize(
                 let pixel = shade(surface, normal, camera.ray(x, y), camera);
                 pixels[i * 4..i * 4 + 4].copy_from_slice(&pixel);
             }
-        });
+        },
+    );
     image
 }
 
 /// The triangles that can be drawn, projected onto the image.
 fn project(mesh: &Mesh, camera: &Camera) -> Vec<Projected> {
-    let screen: Vec<(f64, f64, f64)> = mesh
-        .vertices
-        .par_iter()
-        .map(|&p| camera.project(p))
-        .collect();
+    let screen: Vec<(f64, f64, f64)> =
+        mesh.vertices.par_iter().map(|&p| camera.project(p)).collect();
     let near = 1e-9 * camera.eye().abs().max_element().max(1.0);
     (0..mesh.triangles.len())
         .into_par_iter()
@@ -165,13 +154,9 @@ fn draw(t: &Projected, top: usize, rows: usize, width: usize, nearest: &mut [Opt
     let xs = t.corners.map(|c| c[0]);
     let ys = t.corners.map(|c| c[1]);
     let x0 = (xs[0].min(xs[1]).min(xs[2]) - 0.5).ceil().max(0.0) as usize;
-    let x1 = (xs[0].max(xs[1]).max(xs[2]) - 0.5)
-        .floor()
-        .min(width as f64 - 1.0);
+    let x1 = (xs[0].max(xs[1]).max(xs[2]) - 0.5).floor().min(width as f64 - 1.0);
     let y0 = ((ys[0].min(ys[1]).min(ys[2]) - 0.5).ceil().max(top as f64)) as usize;
-    let y1 = (ys[0].max(ys[1]).max(ys[2]) - 0.5)
-        .floor()
-        .min((top + rows) as f64 - 1.0);
+    let y1 = (ys[0].max(ys[1]).max(ys[2]) - 0.5).floor().min((top + rows) as f64 - 1.0);
     if x1 < 0.0 || y1 < 0.0 {
         return;
     }
@@ -179,11 +164,7 @@ fn draw(t: &Projected, top: usize, rows: usize, width: usize, nearest: &mut [Opt
     for y in y0..=y1 as usize {
         for x in x0..=x1 as usize {
             let p = [x as f64 + 0.5, y as f64 + 0.5];
-            let screen = [
-                edge(b, c, p) / t.area,
-                edge(c, a, p) / t.area,
-                edge(a, b, p) / t.area,
-            ];
+            let screen = [edge(b, c, p) / t.area, edge(c, a, p) / t.area, edge(a, b, p) / t.area];
             if screen.iter().any(|&w| w < 0.0) {
                 continue;
             }
@@ -193,11 +174,7 @@ fn draw(t: &Projected, top: usize, rows: usize, width: usize, nearest: &mut [Opt
             let slot = &mut nearest[(y - top) * width + x];
             if slot.is_none_or(|f| depth < f.depth) {
                 let weights = inverse.map(|w| w * depth);
-                *slot = Some(Fragment {
-                    depth,
-                    triangle: t.triangle,
-                    weights,
-                });
+                *slot = Some(Fragment { depth, triangle: t.triangle, weights });
             }
         }
     }
@@ -217,10 +194,8 @@ fn face_normal(mesh: &Mesh, t: usize) -> DVec3 {
 fn vertex_normals(mesh: &Mesh) -> Vec<DVec3> {
     let mut normals = vec![DVec3::ZERO; mesh.vertices.len()];
     for t in &mesh.triangles {
-        let Some(corners) = t
-            .iter()
-            .map(|&v| mesh.vertices.get(v as usize))
-            .collect::<Option<Vec<_>>>()
+        let Some(corners) =
+            t.iter().map(|&v| mesh.vertices.get(v as usize)).collect::<Option<Vec<_>>>()
         else {
             continue;
         };

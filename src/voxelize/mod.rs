@@ -92,10 +92,8 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
         ));
     }
     let oriented = orient::orient(&vertices, &mesh.triangles);
-    let triangles: Vec<[DVec3; 3]> = oriented
-        .iter()
-        .map(|t| t.map(|i| vertices[i as usize]))
-        .collect();
+    let triangles: Vec<[DVec3; 3]> =
+        oriented.iter().map(|t| t.map(|i| vertices[i as usize])).collect();
     let (rays, winding) = rayon::join(
         || [0, 1, 2].map(|axis| Rays::cast(axis, &triangles, grid.dims, s)),
         || Winding::new(triangles.clone()),
@@ -103,31 +101,26 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
     let classifier = Classifier { rays, winding, s };
     let [_, ny, nz] = grid.dims;
     let mut centre = vec![false; grid.len()];
-    centre
-        .par_chunks_mut(ny * nz)
-        .enumerate()
-        .for_each(|(i, slab)| {
-            for j in 0..ny {
-                for k in 0..nz {
-                    slab[j * nz + k] = classifier.centre_inside([i, j, k]);
-                }
+    centre.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
+        for j in 0..ny {
+            for k in 0..nz {
+                slab[j * nz + k] = classifier.centre_inside([i, j, k]);
             }
-        });
+        }
+    });
     let mut data = vec![0.0f32; grid.len()];
-    data.par_chunks_mut(ny * nz)
-        .enumerate()
-        .for_each(|(i, slab)| {
-            for j in 0..ny {
-                for k in 0..nz {
-                    let voxel = [i, j, k];
-                    slab[j * nz + k] = if at_surface(grid, &centre, voxel) {
-                        classifier.density(voxel)
-                    } else {
-                        f32::from(u8::from(centre[grid.index(voxel)]))
-                    };
-                }
+    data.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
+        for j in 0..ny {
+            for k in 0..nz {
+                let voxel = [i, j, k];
+                slab[j * nz + k] = if at_surface(grid, &centre, voxel) {
+                    classifier.density(voxel)
+                } else {
+                    f32::from(u8::from(centre[grid.index(voxel)]))
+                };
             }
-        });
+        }
+    });
     Ok(Volume { grid: *grid, data })
 }
 
@@ -143,11 +136,7 @@ fn check(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<()> {
         return Err(Error::invalid("voxelize", "the mesh has no triangles"));
     }
     let n = mesh.vertices.len();
-    if let Some(t) = mesh
-        .triangles
-        .iter()
-        .position(|t| t.iter().any(|&i| i as usize >= n))
-    {
+    if let Some(t) = mesh.triangles.iter().position(|t| t.iter().any(|&i| i as usize >= n)) {
         return Err(Error::invalid(
             "voxelize",
             format!("triangle {t} refers to a vertex beyond the {n} vertices"),
@@ -160,10 +149,7 @@ fn check(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<()> {
         ));
     }
     if grid.is_empty() || !(grid.voxel_size.is_finite() && grid.voxel_size > 0.0) {
-        return Err(Error::invalid(
-            "voxelize",
-            "the grid has no voxels or no positive voxel size",
-        ));
+        return Err(Error::invalid("voxelize", "the grid has no voxels or no positive voxel size"));
     }
     if grid.dims.iter().any(|&d| d > Grid::MAX_AXIS) {
         return Err(Error::invalid(

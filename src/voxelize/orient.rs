@@ -18,10 +18,7 @@ pub(crate) fn orient(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]
     let welded = weld(vertices, triangles);
     let neighbours = manifold_neighbours(&welded);
     let (flip, component) = propagate(&neighbours);
-    let area: Vec<f64> = triangles
-        .iter()
-        .map(|t| vector_area(vertices, *t).length())
-        .collect();
+    let area: Vec<f64> = triangles.iter().map(|t| vector_area(vertices, *t).length()).collect();
     let flip = keep_majority(&flip, &component, &area);
     let mut oriented: Vec<[u32; 3]> = triangles
         .iter()
@@ -60,10 +57,7 @@ fn weld(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
             *first.entry(key).or_insert(i as u32)
         })
         .collect();
-    triangles
-        .iter()
-        .map(|t| t.map(|i| canonical[i as usize]))
-        .collect()
+    triangles.iter().map(|t| t.map(|i| canonical[i as usize])).collect()
 }
 
 /// For every triangle, its neighbours across manifold edges and whether the neighbour
@@ -130,9 +124,7 @@ fn keep_majority(flip: &[bool], component: &[u32], area: &[f64]) -> Vec<bool> {
     for t in 0..flip.len() {
         balance[component[t] as usize] += if flip[t] { area[t] } else { -area[t] };
     }
-    (0..flip.len())
-        .map(|t| flip[t] ^ (balance[component[t] as usize] > 0.0))
-        .collect()
+    (0..flip.len()).map(|t| flip[t] ^ (balance[component[t] as usize] > 0.0)).collect()
 }
 
 #[cfg(test)]
@@ -146,9 +138,7 @@ mod tests {
     }
 
     fn signed_volume(v: &[DVec3], t: &[[u32; 3]]) -> f64 {
-        t.iter()
-            .map(|t| v[t[0] as usize].dot(v[t[1] as usize].cross(v[t[2] as usize])))
-            .sum()
+        t.iter().map(|t| v[t[0] as usize].dot(v[t[1] as usize].cross(v[t[2] as usize]))).sum()
     }
 
     #[test]

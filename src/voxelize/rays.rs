@@ -53,12 +53,7 @@ impl Rays {
         // Lattice lines a triangle's projection covers along one axis, clamped to the grid.
         let span = |tri: &[DVec3; 3], axis: usize, n: usize| -> Option<(usize, usize)> {
             let lo = tri.iter().map(|p| p[axis]).fold(f64::INFINITY, f64::min) * sf + h;
-            let hi = tri
-                .iter()
-                .map(|p| p[axis])
-                .fold(f64::NEG_INFINITY, f64::max)
-                * sf
-                + h;
+            let hi = tri.iter().map(|p| p[axis]).fold(f64::NEG_INFINITY, f64::max) * sf + h;
             let (lo, hi) = (lo.ceil().max(0.0), hi.floor().min((n * s) as f64 - 1.0));
             (lo <= hi).then_some((lo as usize, hi as usize))
         };
@@ -113,12 +108,7 @@ impl Rays {
             }
             hits.extend(row_hits);
         }
-        Rays {
-            n_v,
-            subs: s * s,
-            start,
-            hits,
-        }
+        Rays { n_v, subs: s * s, start, hits }
     }
 
     /// The hits of sub-ray `sub` of coarse column `(u, v)`, sorted along the ray.
@@ -178,11 +168,7 @@ impl Projected {
         } else {
             0.0
         };
-        Projected {
-            p,
-            depth: tri.map(|c| c[axis]),
-            orientation,
-        }
+        Projected { p, depth: tri.map(|c| c[axis]), orientation }
     }
 
     /// Whether the ray through `q` crosses the triangle: where, and whether it enters.
@@ -212,11 +198,7 @@ impl Projected {
 /// edge get the same magnitude, and on the edge itself signed by the perturbation `q + (ε, ε²)`.
 #[inline]
 fn signed_edge(a: [f64; 2], b: [f64; 2], q: [f64; 2]) -> f64 {
-    let (lo, hi, sign) = if (a[0], a[1]) <= (b[0], b[1]) {
-        (a, b, 1.0)
-    } else {
-        (b, a, -1.0)
-    };
+    let (lo, hi, sign) = if (a[0], a[1]) <= (b[0], b[1]) { (a, b, 1.0) } else { (b, a, -1.0) };
     let e = edge_function(lo, hi, q);
     let e = if e != 0.0 {
         e
@@ -224,11 +206,7 @@ fn signed_edge(a: [f64; 2], b: [f64; 2], q: [f64; 2]) -> f64 {
         // d/dq of the edge function along (ε, ε²): -(hi.v - lo.v) ε + (hi.u - lo.u) ε².
         let dv = lo[1] - hi[1];
         let tiny = f64::MIN_POSITIVE;
-        if dv != 0.0 {
-            dv.signum() * tiny
-        } else {
-            (hi[0] - lo[0]).signum() * tiny
-        }
+        if dv != 0.0 { dv.signum() * tiny } else { (hi[0] - lo[0]).signum() * tiny }
     };
     sign * e
 }
@@ -247,27 +225,17 @@ mod tests {
     fn a_ray_through_a_shared_edge_or_vertex_counts_once() {
         // A square in the plane z = 0.5 split along its diagonal, and a fan around its centre.
         let c = |x: f64, y: f64| DVec3::new(x, y, 0.5);
-        let square = [
-            [c(0.0, 0.0), c(2.0, 0.0), c(2.0, 2.0)],
-            [c(0.0, 0.0), c(2.0, 2.0), c(0.0, 2.0)],
-        ];
+        let square =
+            [[c(0.0, 0.0), c(2.0, 0.0), c(2.0, 2.0)], [c(0.0, 0.0), c(2.0, 2.0), c(0.0, 2.0)]];
         let fan: Vec<[DVec3; 3]> = {
             let ring = [c(0.0, 0.0), c(2.0, 0.0), c(2.0, 2.0), c(0.0, 2.0)];
-            (0..4)
-                .map(|i| [c(1.0, 1.0), ring[i], ring[(i + 1) % 4]])
-                .collect()
+            (0..4).map(|i| [c(1.0, 1.0), ring[i], ring[(i + 1) % 4]]).collect()
         };
         for tris in [&square[..], &fan[..]] {
             for q in [[1.0, 1.0], [0.5, 0.5], [1.5, 1.5], [0.0, 0.0], [2.0, 1.0]] {
-                let n = tris
-                    .iter()
-                    .filter(|t| Projected::new(t, 2).cross(q).is_some())
-                    .count();
+                let n = tris.iter().filter(|t| Projected::new(t, 2).cross(q).is_some()).count();
                 let expect = usize::from(q[0] > 0.0 && q[0] < 2.0 && q[1] > 0.0 && q[1] < 2.0);
-                assert!(
-                    n == expect || (expect == 0 && n <= 1),
-                    "{q:?}: {n} crossings"
-                );
+                assert!(n == expect || (expect == 0 && n <= 1), "{q:?}: {n} crossings");
             }
         }
     }

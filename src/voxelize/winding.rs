@@ -81,16 +81,8 @@ impl Winding {
                 hi = hi.max(*p);
             }
         }
-        let centre = if total > 0.0 {
-            weighted / total
-        } else {
-            0.5 * (lo + hi)
-        };
-        let radius = tris
-            .iter()
-            .flatten()
-            .map(|p| p.distance(centre))
-            .fold(0.0, f64::max);
+        let centre = if total > 0.0 { weighted / total } else { 0.5 * (lo + hi) };
+        let radius = tris.iter().flatten().map(|p| p.distance(centre)).fold(0.0, f64::max);
         let node = &mut self.nodes[n];
         (node.centre, node.area, node.radius) = (centre, area, radius);
     }
@@ -210,10 +202,7 @@ mod tests {
         assert!(w.at(DVec3::new(1.5, 0.5, 0.5)).abs() < 2e-2);
         assert!(w.at(DVec3::new(40.0, -3.0, 7.0)).abs() < 1e-3);
         // Without the top face (z = 1) the centre sees 5/6 of the sphere.
-        let open: Vec<_> = cube(12)
-            .into_iter()
-            .filter(|t| t.iter().any(|p| p.z < 1.0))
-            .collect();
+        let open: Vec<_> = cube(12).into_iter().filter(|t| t.iter().any(|p| p.z < 1.0)).collect();
         assert!((Winding::new(open).at(DVec3::splat(0.5)) - 5.0 / 6.0).abs() < 1e-2);
     }
 }

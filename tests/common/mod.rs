@@ -92,6 +92,8 @@ pub fn max_vertex_distance(from: &Mesh, to: &Mesh) -> f64 {
     let triangles: Vec<[DVec3; 3]> = (0..to.triangles.len()).map(|t| to.corners(t)).collect();
     from.vertices
         .par_iter()
-        .map(|&p| triangles.iter().map(|&t| point_triangle_distance(p, t)).fold(f64::INFINITY, f64::min))
+        .map(|&p| {
+            triangles.iter().map(|&t| point_triangle_distance(p, t)).fold(f64::INFINITY, f64::min)
+        })
         .reduce(|| 0.0, f64::max)
 }
