@@ -22,11 +22,7 @@ fn shapes_distance(p: DVec3) -> f64 {
     // A torus around z, or around x when `around_x`.
     let torus = |c: DVec3, major: f64, minor: f64, around_x: bool| {
         let q = p - c;
-        let q = if around_x {
-            DVec3::new(q.y, q.z, q.x)
-        } else {
-            q
-        };
+        let q = if around_x { DVec3::new(q.y, q.z, q.x) } else { q };
         let a = (q.x * q.x + q.y * q.y).sqrt() - major;
         minor - (a * a + q.z * q.z).sqrt()
     };
@@ -43,18 +39,13 @@ fn shapes_distance(p: DVec3) -> f64 {
 }
 
 fn shapes_grid() -> Grid {
-    Grid {
-        dims: DIMS,
-        origin: [0.0; 3],
-        voxel_size: 1.0,
-    }
+    Grid { dims: DIMS, origin: [0.0; 3], voxel_size: 1.0 }
 }
 
 fn shapes_volume() -> Volume<f32> {
     let grid = shapes_grid();
-    let data = (0..grid.len())
-        .map(|n| shapes_distance(grid.position(grid.voxel(n))) as f32)
-        .collect();
+    let data =
+        (0..grid.len()).map(|n| shapes_distance(grid.position(grid.voxel(n))) as f32).collect();
     Volume { grid, data }
 }
 
@@ -76,9 +67,7 @@ fn benches(c: &mut Criterion) {
     let volume = shapes_volume();
     let mut group = c.benchmark_group("polygonize");
     group.sample_size(10);
-    group.bench_function("shapes 176x220x218", |b| {
-        b.iter(|| polygonize(black_box(&volume), 0.0))
-    });
+    group.bench_function("shapes 176x220x218", |b| b.iter(|| polygonize(black_box(&volume), 0.0)));
     let grid = shapes_grid();
     group.bench_function("field shapes 176x220x218", |b| {
         b.iter(|| polygonize_field(&Shapes, black_box(&grid)))
@@ -92,28 +81,17 @@ fn read_volume(path: &Path) -> Volume<f32> {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let npy = npyz::NpyFile::new(&bytes[..]).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let shape: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
-    let dims: [usize; 3] = shape
-        .try_into()
-        .unwrap_or_else(|s| panic!("{}: shape {s:?} is not 3D", path.display()));
-    let data = npy
-        .into_vec::<f32>()
-        .unwrap_or_else(|e| panic!("{}: not float32: {e}", path.display()));
-    Volume {
-        grid: Grid {
-            dims,
-            origin: [0.0; 3],
-            voxel_size: 1.0,
-        },
-        data,
-    }
+    let dims: [usize; 3] =
+        shape.try_into().unwrap_or_else(|s| panic!("{}: shape {s:?} is not 3D", path.display()));
+    let data =
+        npy.into_vec::<f32>().unwrap_or_else(|e| panic!("{}: not float32: {e}", path.display()));
+    Volume { grid: Grid { dims, origin: [0.0; 3], voxel_size: 1.0 }, data }
 }
 
 fn time_file(path: &Path) {
     let volume = read_volume(path);
-    let repeat: usize = std::env::var("POLYGONIZE_REPEAT")
-        .ok()
-        .and_then(|r| r.parse().ok())
-        .unwrap_or(5);
+    let repeat: usize =
+        std::env::var("POLYGONIZE_REPEAT").ok().and_then(|r| r.parse().ok()).unwrap_or(5);
     let mut best = f64::INFINITY;
     let mut mesh = polygonize(&volume, 0.0);
     for _ in 0..repeat {
@@ -126,9 +104,7 @@ fn time_file(path: &Path) {
 
 fn main() {
     if let Some(path) = std::env::var_os("POLYGONIZE_WRITE_SHAPES") {
-        shapes_volume()
-            .save_npy(Path::new(&path))
-            .expect("writing the shapes volume");
+        shapes_volume().save_npy(Path::new(&path)).expect("writing the shapes volume");
     } else if let Some(path) = std::env::var_os("POLYGONIZE_TIME") {
         time_file(Path::new(&path));
     } else {

@@ -23,10 +23,7 @@ fn sphere_constraints(n: usize) -> Vec<Constraint> {
             let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
             let (r, phi) = ((1.0 - z * z).sqrt(), i as f64 * 2.399_963_229_728_653);
             let (scale, value) = if i % 3 == 2 { (1.1, -0.1) } else { (1.0, 0.0) };
-            Constraint::new(
-                &[scale * r * phi.cos(), scale * r * phi.sin(), scale * z],
-                value,
-            )
+            Constraint::new(&[scale * r * phi.cos(), scale * r * phi.sin(), scale * z], value)
         })
         .collect()
 }
@@ -47,10 +44,8 @@ fn eval(c: &mut Criterion) {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bunny_constraints.csv");
     let (_, constraints) = read_constraints(&data).unwrap();
     let implicit = Implicit::solve(3, Kernel::ThinPlate, &constraints).unwrap();
-    let positions: Vec<DVec3> = constraints
-        .iter()
-        .map(|c| DVec3::from_slice(c.position()))
-        .collect();
+    let positions: Vec<DVec3> =
+        constraints.iter().map(|c| DVec3::from_slice(c.position())).collect();
     let bounds = Aabb::of_points(&positions).unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let points: Vec<[f64; 3]> = (0..500_000)
@@ -68,10 +63,7 @@ fn eval(c: &mut Criterion) {
 fn grid(c: &mut Criterion) {
     let mut group = c.benchmark_group("grid_200");
     group.sample_size(10);
-    let bounds = Aabb {
-        min: DVec3::splat(-1.1),
-        max: DVec3::splat(1.1),
-    };
+    let bounds = Aabb { min: DVec3::splat(-1.1), max: DVec3::splat(1.1) };
     let grid = Grid::around(&bounds, Resolution::LongestAxis(200)).unwrap();
     let goal = Volume {
         grid,

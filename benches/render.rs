@@ -32,11 +32,7 @@ impl BumpyBall {
         let raw: Vec<f64> = (0..n).map(|i| (12.9898 * i as f64).sin()).collect();
         let mean = raw.iter().sum::<f64>() / n as f64;
         let weights = raw.iter().map(|w| 0.05 * (w - mean)).collect();
-        BumpyBall {
-            centers,
-            weights,
-            evaluations: AtomicUsize::new(0),
-        }
+        BumpyBall { centers, weights, evaluations: AtomicUsize::new(0) }
     }
 }
 
@@ -86,18 +82,12 @@ fn uv_sphere(nu: usize, nv: usize) -> Mesh {
             })
         })
         .collect();
-    Mesh {
-        vertices,
-        triangles,
-    }
+    Mesh { vertices, triangles }
 }
 
 fn bench(c: &mut Criterion) {
     let field = BumpyBall::new(500);
-    let bounds = Aabb {
-        min: DVec3::splat(-1.15),
-        max: DVec3::splat(1.15),
-    };
+    let bounds = Aabb { min: DVec3::splat(-1.15), max: DVec3::splat(1.15) };
     let camera = Camera::framing(&bounds, 30.0, 20.0, 800, 800).unwrap();
     let start = Instant::now();
     let image = render_field(&field, &bounds, &camera, Coloring::Plain, March::default()).unwrap();
@@ -112,14 +102,8 @@ fn bench(c: &mut Criterion) {
     group.sample_size(10);
     group.bench_function("field_500_terms_800x800", |b| {
         b.iter(|| {
-            render_field(
-                black_box(&field),
-                &bounds,
-                &camera,
-                Coloring::Plain,
-                March::default(),
-            )
-            .unwrap()
+            render_field(black_box(&field), &bounds, &camera, Coloring::Plain, March::default())
+                .unwrap()
         })
     });
     let mesh = uv_sphere(500, 500);

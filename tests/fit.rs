@@ -11,7 +11,7 @@ fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> (Grid, fit:
     let grid = Grid::around(&mesh.bounds().unwrap(), Resolution::LongestAxis(resolution)).unwrap();
     let density = voxelize::voxelize(mesh, &grid, &Default::default()).unwrap();
     let goal = Goal::from_density(density, &options.regularity);
-    let fitted = fit::fit(&goal, options, |_| {}).unwrap();
+    let fitted = fit::fit(&goal, options, |_, _| {}).unwrap();
     (grid, fitted)
 }
 

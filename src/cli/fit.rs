@@ -142,7 +142,7 @@ fn fit_and_write(
     let density = voxelize::voxelize(mesh, &grid, &voxelize::VoxelizeOptions::default())?;
     let goal = Goal::from_density(density, &options.regularity);
     let fitted = match args.method {
-        Method::Iterative => fit::fit(&goal, &options, |line| progress.line(line.line()))?,
+        Method::Iterative => fit::fit(&goal, &options, |line, _| progress.line(line.line()))?,
         Method::Naive => fit::naive::fit(mesh, &goal, &options)?,
     };
     let mut report = fitted.report;

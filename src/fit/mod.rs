@@ -134,12 +134,13 @@ struct Measured {
 
 /// Fits a variational implicit surface to `goal` with the iterative method of the paper.
 ///
-/// `on_iteration` is called after each iteration with its figures (for progress lines). The
+/// `on_iteration` is called after each iteration with its figures and its model (for progress
+/// lines and snapshots). The
 /// returned model is the best by E, then RMS, over all iterations.
 pub fn fit(
     goal: &Goal,
     options: &FitOptions,
-    mut on_iteration: impl FnMut(&IterationReport),
+    mut on_iteration: impl FnMut(&IterationReport, &Implicit),
 ) -> Result<Fit> {
     let started = Instant::now();
     let grid = *goal.grid();
@@ -160,7 +161,7 @@ pub fn fit(
         timings.total = timings.signed_distance + timings.implicit_evaluation + timings.misc;
         let counts = ConstraintCounts::of_values(constraints.iter().map(|c| c.value));
         let line = IterationReport::new(iteration, counts, metrics, timings);
-        on_iteration(&line);
+        on_iteration(&line, &implicit);
         per_iteration.push(line);
         add_timings(&mut totals, &timings);
         if best.as_ref().is_none_or(|(_, b, _)| better(&metrics, b)) {
