@@ -160,7 +160,8 @@ pub struct BoundaryErrors {
     pub voxels: Vec<[usize; 3]>,
     /// The other shape's signed distance at each voxel (voxel units, inside positive).
     pub other_sd: Vec<f32>,
-    /// This shape's radius of regularity at each voxel, in voxels.
+    /// This shape's radius of regularity at each voxel, in voxels; NaN where it was not
+    /// measured because it could change neither Ew nor the fit's choices (see the fit).
     pub rreg: Vec<f32>,
     /// A point on this shape's surface at each voxel, in continuous voxel coordinates.
     pub points: Vec<DVec3>,
@@ -189,7 +190,8 @@ impl BoundaryErrors {
         self.other_sd[i].abs()
     }
 
-    /// The weighted error |sd| / rreg at voxel number `i`.
+    /// The weighted error |sd| / rreg at voxel number `i` (NaN where rreg was not measured,
+    /// which every maximum here ignores).
     pub fn weighted_error(&self, i: usize) -> f32 {
         self.error(i) / self.rreg[i]
     }

@@ -108,3 +108,22 @@ fn demo_writes_into_its_folder() {
         assert!(dir.path().join("demo").join(file).is_file(), "no {file}");
     }
 }
+
+#[test]
+fn the_same_mesh_and_seed_give_the_same_model_file_byte_for_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let fit = |name: &str, seed: &str| {
+        let path = dir.path().join(name);
+        let out = implicitize()
+            .arg("fit")
+            .arg(triceratops())
+            .args(["--resolution", "56", "--quiet", "--seed", seed, "-o"])
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        std::fs::read(path).unwrap()
+    };
+    assert_eq!(fit("a.json", "1"), fit("b.json", "1"));
+    assert_ne!(fit("a.json", "1"), fit("c.json", "2"));
+}

@@ -151,7 +151,7 @@ fn fit_and_write(
     let mut model = Model::from_implicit(fitted.implicit, bounds, Some(grid));
     model.save(outputs.model)?;
     report.model_bytes = std::fs::metadata(outputs.model).ok().map(|m| m.len());
-    model.set_report(serde_json::to_value(&report)?);
+    model.set_report(without_timings(serde_json::to_value(&report)?));
     model.save(outputs.model)?;
     if let Some(path) = outputs.report {
         write_report(path, &report)?;
@@ -162,6 +162,20 @@ fn fit_and_write(
     }
     progress.line(report.table(name));
     Ok(())
+}
+
+/// The report as the model file keeps it: without the running times, so that the same mesh,
+/// options and seed give the same model file byte for byte (the report file has them).
+fn without_timings(mut report: serde_json::Value) -> serde_json::Value {
+    if let Some(fields) = report.as_object_mut() {
+        fields.remove("timings_s");
+        if let Some(serde_json::Value::Array(iterations)) = fields.get_mut("per_iteration") {
+            for iteration in iterations.iter_mut().filter_map(|i| i.as_object_mut()) {
+                iteration.remove("timings_s");
+            }
+        }
+    }
+    report
 }
 
 fn write_report(path: &Path, report: &FitReport) -> anyhow::Result<()> {

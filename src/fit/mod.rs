@@ -97,7 +97,7 @@ impl Default for FitOptions {
             patience: 4,
             max_iterations: 40,
             max_constraints: 2000,
-            max_growth: std::env::var("GROWTH").ok().and_then(|g| g.parse().ok()).unwrap_or(0.2),
+            max_growth: 0.1,
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
         }
@@ -231,8 +231,6 @@ fn measure(
 
     let clock = Instant::now();
     let current_boundary = distance::boundary_voxels(&sd_current);
-    let current_rreg =
-        metrics::radii_of_regularity(&sd_current, &current_boundary, &options.regularity);
     let current_fine = SubVoxel { values: &values, level: 0.0, sd: &sd_current, reach: 2.0 };
     let current_points = current_boundary
         .par_iter()
@@ -245,16 +243,50 @@ fn measure(
         &sd_current,
         &current_fine,
     );
-    let current_side = BoundaryErrors::new(
+    let unmeasured = vec![f32::NAN; current_boundary.len()];
+    let mut current_side = BoundaryErrors::new(
         current_boundary,
-        current_rreg,
+        unmeasured,
         current_points,
         &goal.sd,
         &goal.sub_voxel(),
     );
+    current_regularity(&goal_side, &mut current_side, &sd_current, options);
     let metrics = ErrorMetrics::measure(&goal_side, &current_side);
     timings.misc += clock.elapsed().as_secs_f64();
     Measured { metrics, goal_side, current_side }
+}
+
+/// The radius of regularity of the current surface where it can matter: at the voxels that
+/// may become candidates (a sub-voxel error of at least the error fraction of the largest), and
+/// where the weighted error could exceed the goal side's Ew (radii are at least `min_radius`).
+/// Elsewhere the radius stays NaN, "not measured": it changes neither Ew nor any candidate, and
+/// the walk is the costliest part of measuring a model.
+fn current_regularity(
+    goal_side: &BoundaryErrors,
+    current_side: &mut BoundaryErrors,
+    sd_current: &Volume<f32>,
+    options: &FitOptions,
+) {
+    let sides = [&*goal_side, &*current_side];
+    let max_fine = sides
+        .iter()
+        .flat_map(|side| (0..side.voxels.len()).map(|i| side.fine_error(i)))
+        .fold(0.0f32, f32::max);
+    let goal_ew =
+        (0..goal_side.voxels.len()).map(|i| goal_side.weighted_error(i)).fold(0.0f32, f32::max);
+    let min_radius = options.regularity.min_radius as f32;
+    let needed: Vec<usize> = (0..current_side.voxels.len())
+        .filter(|&i| {
+            current_side.fine_error(i) >= max_fine * options.error_fraction
+                || current_side.error(i) > goal_ew * min_radius
+        })
+        .collect();
+    let voxels: Vec<[usize; 3]> = needed.iter().map(|&i| current_side.voxels[i]).collect();
+    let radii = metrics::radii_of_regularity(sd_current, &voxels, &options.regularity);
+    for (i, r) in needed.into_iter().zip(radii) {
+        current_side.rreg[i] = r;
+    }
 }
 
 /// sd_curr: the signed distance of the voxels where the implicit function is positive.
