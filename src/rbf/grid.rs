@@ -2,8 +2,9 @@
 //!
 //! The fit evaluates the current implicit function over the whole volume every iteration, to
 //! find its boundary voxels and signed distance. Evaluating every voxel is wasteful: far from
-//! the surface the sign does not change. As in the paper, the field is sampled coarsely everywhere and voxel by voxel only where the sign may change or
-//! near the goal boundary; [`evaluate_on_grid`] states the rule and what it can miss.
+//! the surface the sign does not change. As in the paper, the field is sampled coarsely
+//! everywhere and voxel by voxel only where the sign may change or near the goal boundary, with
+//! one level in between; [`evaluate_on_grid`] states the rule and what it can miss.
 
 use rayon::prelude::*;
 
@@ -14,22 +15,29 @@ use crate::grid::{Grid, Volume};
 /// The spacing of the coarse samples, in voxels.
 pub const STEP: usize = 4;
 
-/// Cubes with a voxel this close to the goal boundary (in voxels) are always sampled finely.
+/// Cubes with a voxel this close to the goal boundary (in voxels) are always refined.
 pub const NEAR_GOAL: f32 = 8.0;
 
-/// The coarse samples along one axis and which coarse cells each voxel lies in.
+/// The middle level's margin on its slope bound (see [`evaluate_on_grid`]).
+pub const SLOPE_SAFETY: f64 = 2.0;
+
+/// The samples of one level along one axis: every `step`th voxel and the last one.
 struct Axis {
-    /// Voxel indices of the coarse samples: 0, 4, 8, ... and the last voxel.
     nodes: Vec<usize>,
+    /// The cell holding each voxel (a voxel on a cell's upper end belongs to the next cell,
+    /// except the last voxel).
+    cell: Vec<u32>,
 }
 
 impl Axis {
-    fn new(n: usize) -> Axis {
-        let mut nodes: Vec<usize> = (0..n).step_by(STEP).collect();
+    fn new(n: usize, step: usize) -> Axis {
+        let mut nodes: Vec<usize> = (0..n).step_by(step).collect();
         if nodes.last() != Some(&(n - 1)) {
             nodes.push(n - 1);
         }
-        Axis { nodes }
+        let cells = (nodes.len() - 1).max(1);
+        let cell = (0..n).map(|i| (i / step).min(cells - 1) as u32).collect();
+        Axis { nodes, cell }
     }
 
     /// The number of cells: one between each pair of samples, or one flat cell for one voxel.
@@ -42,32 +50,76 @@ impl Axis {
         (self.nodes[c], self.nodes[(c + 1).min(self.nodes.len() - 1)])
     }
 
-    /// The first cell that holds voxel `i`, and the last (the same unless `i` is a sample
-    /// between two cells).
-    fn cells_of(&self, i: usize) -> (usize, usize) {
-        let c = (i / STEP).min(self.cells() - 1);
-        let (lo, _) = self.span(c);
-        if i == lo && c > 0 { (c - 1, c) } else { (c, c) }
+    /// Where voxel `i` lies: its cell's span and the fraction across it.
+    fn locate(&self, i: usize) -> ((usize, usize), f64) {
+        let (lo, hi) = self.span(self.cell[i] as usize);
+        ((lo, hi), if hi > lo { (i - lo) as f64 / (hi - lo) as f64 } else { 0.0 })
     }
 
-    /// The sample index of voxel `i`, if it is a sample.
-    fn node_of(&self, i: usize) -> Option<usize> {
-        let c = i / STEP;
-        if i % STEP == 0 {
-            Some(c)
-        } else if i == *self.nodes.last().expect("at least one node") {
-            Some(self.nodes.len() - 1)
-        } else {
-            None
+    /// The cells of this (finer) axis inside the span `(lo, hi)` of a coarser one.
+    fn cells_within(&self, (lo, hi): (usize, usize)) -> std::ops::Range<usize> {
+        let first = self.cell[lo] as usize;
+        if hi == lo { first..first + 1 } else { first..self.cell[hi - 1] as usize + 1 }
+    }
+}
+
+/// One level of samples over the grid: an axis per dimension.
+struct Level {
+    axes: [Axis; 3],
+}
+
+impl Level {
+    fn new(grid: &Grid, step: usize) -> Level {
+        Level { axes: grid.dims.map(|n| Axis::new(n, step)) }
+    }
+
+    fn cell_count(&self) -> usize {
+        self.axes.iter().map(Axis::cells).product()
+    }
+
+    fn cell_of_index(&self, s: usize) -> [usize; 3] {
+        let cells = self.axes.each_ref().map(Axis::cells);
+        [s / (cells[1] * cells[2]), (s / cells[2]) % cells[1], s % cells[2]]
+    }
+
+    fn cell_index(&self, cell: [usize; 3]) -> usize {
+        let cells = self.axes.each_ref().map(Axis::cells);
+        (cell[0] * cells[1] + cell[1]) * cells[2] + cell[2]
+    }
+
+    fn spans(&self, cell: [usize; 3]) -> [(usize, usize); 3] {
+        [0, 1, 2].map(|a| self.axes[a].span(cell[a]))
+    }
+}
+
+/// The values found so far, one per voxel, and which voxels have one.
+struct Samples {
+    grid: Grid,
+    values: Vec<f32>,
+    known: Vec<bool>,
+}
+
+impl Samples {
+    /// Evaluates `field` at the voxels `indices` (distinct, not yet known) and records them.
+    fn evaluate<F: Field + ?Sized>(&mut self, field: &F, indices: &[usize]) {
+        let positions: Vec<DVec3> =
+            indices.par_iter().map(|&v| self.grid.position(self.grid.voxel(v))).collect();
+        for (&v, value) in indices.iter().zip(field.values(&positions)) {
+            self.values[v] = value as f32;
+            self.known[v] = true;
         }
     }
 
-    /// The interpolation cell of voxel `i` and its fraction across it.
-    fn locate(&self, i: usize) -> (usize, f64) {
-        let (c, _) = self.cells_of(i);
-        let (lo, hi) = self.span(c);
-        let t = if hi > lo { (i - lo) as f64 / (hi - lo) as f64 } else { 0.0 };
-        (c, t)
+    fn at(&self, [i, j, k]: [usize; 3]) -> f32 {
+        self.values[self.grid.index([i, j, k])]
+    }
+
+    /// The values at the (up to) eight corners of the box `spans`.
+    fn corners(&self, spans: [(usize, usize); 3]) -> [f32; 8] {
+        std::array::from_fn(|c| {
+            let pick = |a: usize| if c >> a & 1 == 1 { spans[a].1 } else { spans[a].0 };
+            self.at([pick(0), pick(1), pick(2)])
+        })
     }
 }
 
@@ -79,16 +131,25 @@ impl Axis {
 ///    of any size are covered), which cuts the grid into coarse cubes.
 /// 2. Every coarse cube whose eight corners do not all have the same strict sign, or, when
 ///    `goal_sd` (the goal's signed distance in voxels, on the same grid) is given, that has a
-///    voxel with `|goal_sd| <= 8`, is sampled voxel by voxel.
-/// 3. Every other voxel is filled by trilinear interpolation of its cube's corners, which keeps
-///    their common sign.
+///    voxel with `|goal_sd| <= 8`, is refined, as the paper refines it. Where the paper then
+///    samples such a cube voxel by voxel, we first sample it at every 2nd voxel and estimate
+///    the field's steepest slope `G` over it from those samples.
+/// 3. Each half-size cube of a refined cube is sampled voxel by voxel when its corners do not
+///    share a strict sign, or when one corner's `|f|` is at most `2 G` times the cube's
+///    half-diagonal: a zero inside the cube lies within the half-diagonal of its nearest
+///    corner, so with a slope of at most `G` that corner would have `|f| <= G` times it; the
+///    factor 2 covers a slope estimated from samples two voxels apart.
+/// 4. Every other voxel is filled by trilinear interpolation of the corners of the finest cube
+///    sampled around it, which keeps their common sign.
 ///
 /// # What this can miss
 /// A piece of surface that lies entirely inside one coarse cube whose eight corners share a
 /// sign, more than 8 voxels from the goal boundary: a detached component smaller than a coarse
 /// cube (4 voxels across), or a thin bump poking between corners, far from where the shape
-/// should be. Near the goal boundary, where the fit works, nothing is missed, and a stray
-/// component at least a coarse cube across always contains a corner and is found.
+/// should be, as in the paper. Near the goal boundary, the middle level misses a zero only where
+/// the field is more than twice as steep between samples as across them, which a smooth
+/// variational function is not at the scale of two voxels; a stray component at least a coarse
+/// cube across always contains a corner and is found.
 ///
 /// # Panics
 /// If `goal_sd` is on a grid of other dimensions than `grid`.
@@ -100,79 +161,69 @@ pub fn evaluate_on_grid<F: Field + ?Sized>(
     if let Some(goal) = goal_sd {
         assert_eq!(goal.grid.dims, grid.dims, "the goal volume must be on the evaluation grid");
     }
-    let axes = grid.dims.map(Axis::new);
-    let coarse = coarse_values(field, grid, &axes);
-    let flagged = flag_cells(grid, &axes, &coarse, goal_sd);
-    let exact = exact_voxels(grid, &axes, &flagged);
-    let positions: Vec<DVec3> = exact.par_iter().map(|&v| grid.position(grid.voxel(v))).collect();
-    let exact_values = field.values(&positions);
-    let mut data = interpolate(grid, &axes, &coarse);
-    for (&v, &value) in exact.iter().zip(&exact_values) {
-        data[v] = value as f32;
-    }
-    Volume { grid: *grid, data }
-}
+    let coarse = Level::new(grid, STEP);
+    let middle = Level::new(grid, STEP / 2);
+    let mut samples =
+        Samples { grid: *grid, values: vec![0.0; grid.len()], known: vec![false; grid.len()] };
 
-/// The field at the coarse samples, C order over the sample indices.
-struct Coarse {
-    dims: [usize; 3],
-    values: Vec<f64>,
-}
-
-impl Coarse {
-    #[inline]
-    fn at(&self, [a, b, c]: [usize; 3]) -> f64 {
-        self.values[(a * self.dims[1] + b) * self.dims[2] + c]
-    }
-}
-
-fn coarse_values<F: Field + ?Sized>(field: &F, grid: &Grid, axes: &[Axis; 3]) -> Coarse {
-    let dims = [0, 1, 2].map(|a| axes[a].nodes.len());
-    let positions: Vec<DVec3> = (0..dims[0] * dims[1] * dims[2])
+    let nodes = lattice_voxels(grid, &coarse, None);
+    samples.evaluate(field, &nodes);
+    let refined: Vec<bool> = (0..coarse.cell_count())
         .into_par_iter()
         .map(|s| {
-            let (a, b, c) = (s / (dims[1] * dims[2]), (s / dims[2]) % dims[1], s % dims[2]);
-            grid.position([axes[0].nodes[a], axes[1].nodes[b], axes[2].nodes[c]])
+            let spans = coarse.spans(coarse.cell_of_index(s));
+            sign_changes(&samples.corners(spans))
+                || goal_sd.is_some_and(|g| near_goal(grid, g, spans))
         })
         .collect();
-    Coarse { dims, values: field.values(&positions) }
+
+    let nodes = lattice_voxels(grid, &middle, Some((&coarse, &refined, &samples.known)));
+    samples.evaluate(field, &nodes);
+    let fine = fine_cells(&coarse, &middle, &refined, &samples);
+
+    let voxels = fine_voxels(grid, &middle, &fine, &samples.known);
+    samples.evaluate(field, &voxels);
+    fill(&mut samples, &coarse, &middle, &refined);
+    Volume { grid: *grid, data: samples.values }
 }
 
-/// Whether each coarse cell must be sampled finely, C order over the cell indices.
-fn flag_cells(
-    grid: &Grid,
-    axes: &[Axis; 3],
-    coarse: &Coarse,
-    goal_sd: Option<&Volume<f32>>,
-) -> Vec<bool> {
-    let cells = [0, 1, 2].map(|a| axes[a].cells());
-    (0..cells[0] * cells[1] * cells[2])
-        .into_par_iter()
-        .map(|s| {
-            let cell = [s / (cells[1] * cells[2]), (s / cells[2]) % cells[1], s % cells[2]];
-            let spans = [0, 1, 2].map(|a| axes[a].span(cell[a]));
-            sign_changes(coarse, axes, cell) || goal_sd.is_some_and(|g| near_goal(grid, g, spans))
+/// The voxels of a level's lattice, in increasing order: all of them, or with `within`, those
+/// in a refined cell of the coarser level that are not yet known.
+fn lattice_voxels(grid: &Grid, level: &Level, within: Option<(&Level, &[bool], &[bool])>) -> Vec<usize> {
+    let [ax, ay, az] = &level.axes;
+    ax.nodes
+        .par_iter()
+        .flat_map_iter(|&i| {
+            ay.nodes.iter().flat_map(move |&j| az.nodes.iter().map(move |&k| [i, j, k]))
+        })
+        .filter_map(|v| {
+            let index = grid.index(v);
+            let wanted = within.is_none_or(|(coarser, refined, known)| {
+                !known[index] && in_refined_cell(coarser, refined, v)
+            });
+            wanted.then_some(index)
         })
         .collect()
 }
 
-/// Whether the corners of a cell do not all share a strict sign.
-fn sign_changes(coarse: &Coarse, axes: &[Axis; 3], cell: [usize; 3]) -> bool {
-    let (mut positive, mut negative) = (false, false);
-    let corner = |a: usize, d: usize| (cell[a] + d).min(axes[a].nodes.len() - 1);
-    for da in 0..2 {
-        for db in 0..2 {
-            for dc in 0..2 {
-                let v = coarse.at([corner(0, da), corner(1, db), corner(2, dc)]);
-                positive |= v > 0.0;
-                negative |= v < 0.0;
-                if v == 0.0 || v.is_nan() || (positive && negative) {
-                    return true;
-                }
-            }
-        }
-    }
-    false
+/// Whether voxel `v` lies in (or on the boundary of) a refined cell of `level`.
+fn in_refined_cell(level: &Level, refined: &[bool], v: [usize; 3]) -> bool {
+    let ranges = [0, 1, 2].map(|a| {
+        let axis = &level.axes[a];
+        let c = axis.cell[v[a]] as usize;
+        let below = c > 0 && axis.span(c).0 == v[a];
+        if below { c - 1..=c } else { c..=c }
+    });
+    ranges[0].clone().any(|a| {
+        ranges[1].clone().any(|b| ranges[2].clone().any(|c| refined[level.cell_index([a, b, c])]))
+    })
+}
+
+/// Whether the corners do not all share a strict sign.
+fn sign_changes(corners: &[f32; 8]) -> bool {
+    let positive = corners.iter().all(|&v| v > 0.0);
+    let negative = corners.iter().all(|&v| v < 0.0);
+    !(positive || negative)
 }
 
 /// Whether any voxel of the cell spanning `spans` is within [`NEAR_GOAL`] of the goal boundary.
@@ -188,62 +239,122 @@ fn near_goal(grid: &Grid, goal: &Volume<f32>, spans: [(usize, usize); 3]) -> boo
     false
 }
 
-/// The linear indices of the voxels to evaluate exactly: those of a flagged cell that are not
-/// coarse samples, in increasing order.
-fn exact_voxels(grid: &Grid, axes: &[Axis; 3], flagged: &[bool]) -> Vec<usize> {
-    let cells = [0, 1, 2].map(|a| axes[a].cells());
-    let [nx, ny, nz] = grid.dims;
-    let is_flagged = |voxel: [usize; 3]| {
-        let ranges = [0, 1, 2].map(|a| axes[a].cells_of(voxel[a]));
-        (ranges[0].0..=ranges[0].1).any(|a| {
-            (ranges[1].0..=ranges[1].1).any(|b| {
-                (ranges[2].0..=ranges[2].1).any(|c| flagged[(a * cells[1] + b) * cells[2] + c])
-            })
-        })
-    };
-    (0..nx)
+/// The middle-level cells to sample voxel by voxel (step 3 of [`evaluate_on_grid`]), as
+/// indices into the middle level's cells.
+fn fine_cells(coarse: &Level, middle: &Level, refined: &[bool], samples: &Samples) -> Vec<usize> {
+    (0..coarse.cell_count())
         .into_par_iter()
-        .flat_map_iter(|i| {
-            (0..ny).flat_map(move |j| (0..nz).map(move |k| [i, j, k])).filter_map(move |v| {
-                let sample = (0..3).all(|a| axes[a].node_of(v[a]).is_some());
-                (!sample && is_flagged(v)).then(|| grid.index(v))
-            })
+        .filter(|&s| refined[s])
+        .flat_map_iter(|s| {
+            let spans = coarse.spans(coarse.cell_of_index(s));
+            let ranges = [0, 1, 2].map(|a| middle.axes[a].cells_within(spans[a]));
+            let slope = steepest_slope(middle, &ranges, samples);
+            let cells: Vec<usize> = ranges[0]
+                .clone()
+                .flat_map(|a| {
+                    let r = ranges.clone();
+                    r[1].clone().flat_map(move |b| r[2].clone().map(move |c| [a, b, c]))
+                })
+                .filter(|&cell| {
+                    let spans = middle.spans(cell);
+                    let corners = samples.corners(spans);
+                    let half_diagonal =
+                        0.5 * spans.iter().map(|(lo, hi)| ((hi - lo) as f64).powi(2)).sum::<f64>().sqrt();
+                    let nearest = corners.iter().map(|v| f64::from(v.abs())).fold(f64::INFINITY, f64::min);
+                    sign_changes(&corners) || nearest <= SLOPE_SAFETY * slope * half_diagonal
+                })
+                .map(|cell| middle.cell_index(cell))
+                .collect();
+            cells
         })
         .collect()
 }
 
-/// Every voxel from the coarse samples: exact at samples, trilinear in between.
-fn interpolate(grid: &Grid, axes: &[Axis; 3], coarse: &Coarse) -> Vec<f32> {
-    let [_, ny, nz] = grid.dims;
-    let locate: [Vec<(usize, f64)>; 3] =
-        [0, 1, 2].map(|a| (0..grid.dims[a]).map(|i| axes[a].locate(i)).collect());
-    let last = coarse.dims.map(|d| d - 1);
-    let mut data = vec![0.0f32; grid.len()];
-    data.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
-        let (a, ta) = locate[0][i];
-        for j in 0..ny {
-            let (b, tb) = locate[1][j];
-            for k in 0..nz {
-                let (c, tc) = locate[2][k];
-                let mut v = 0.0;
-                for (da, wa) in [(0, 1.0 - ta), (1, ta)] {
-                    for (db, wb) in [(0, 1.0 - tb), (1, tb)] {
-                        for (dc, wc) in [(0, 1.0 - tc), (1, tc)] {
-                            let w = wa * wb * wc;
-                            if w != 0.0 {
-                                let s = [
-                                    (a + da).min(last[0]),
-                                    (b + db).min(last[1]),
-                                    (c + dc).min(last[2]),
-                                ];
-                                v += w * coarse.at(s);
-                            }
-                        }
-                    }
+/// The largest `|Δf| / distance` between neighbouring samples of the middle level over the
+/// cells `ranges`.
+fn steepest_slope(middle: &Level, ranges: &[std::ops::Range<usize>; 3], samples: &Samples) -> f64 {
+    let nodes = |a: usize| -> Vec<usize> {
+        let axis = &middle.axes[a];
+        let mut n: Vec<usize> = ranges[a].clone().map(|c| axis.span(c).0).collect();
+        n.push(axis.span(ranges[a].end - 1).1);
+        n.dedup();
+        n
+    };
+    let [xs, ys, zs] = [nodes(0), nodes(1), nodes(2)];
+    let mut slope = 0.0f64;
+    for (a, &i) in xs.iter().enumerate() {
+        for (b, &j) in ys.iter().enumerate() {
+            for (c, &k) in zs.iter().enumerate() {
+                let here = f64::from(samples.at([i, j, k]));
+                let steps = [
+                    xs.get(a + 1).map(|&n| [n, j, k]),
+                    ys.get(b + 1).map(|&n| [i, n, k]),
+                    zs.get(c + 1).map(|&n| [i, j, n]),
+                ];
+                for next in steps.into_iter().flatten() {
+                    let distance = (0..3).map(|d| next[d] - [i, j, k][d]).sum::<usize>() as f64;
+                    slope = slope.max((f64::from(samples.at(next)) - here).abs() / distance);
                 }
-                slab[j * nz + k] = v as f32;
             }
         }
+    }
+    slope
+}
+
+/// The voxels of the cells `fine` (middle level) not yet known, in increasing order.
+fn fine_voxels(grid: &Grid, middle: &Level, fine: &[usize], known: &[bool]) -> Vec<usize> {
+    let mut voxels: Vec<usize> = fine
+        .par_iter()
+        .flat_map_iter(|&s| {
+            let spans = middle.spans(middle.cell_of_index(s));
+            (spans[0].0..=spans[0].1).flat_map(move |i| {
+                (spans[1].0..=spans[1].1)
+                    .flat_map(move |j| (spans[2].0..=spans[2].1).map(move |k| [i, j, k]))
+            })
+        })
+        .map(|v| grid.index(v))
+        .filter(|&v| !known[v])
+        .collect();
+    voxels.par_sort_unstable();
+    voxels.dedup();
+    voxels
+}
+
+/// Fills every voxel not sampled by trilinear interpolation of the corners of the finest cell
+/// sampled around it: the middle level's in refined coarse cells, the coarse level's elsewhere.
+fn fill(samples: &mut Samples, coarse: &Level, middle: &Level, refined: &[bool]) {
+    let grid = samples.grid;
+    let slab = grid.dims[1] * grid.dims[2];
+    let sampled = samples.values.clone();
+    let known = &samples.known;
+    samples.values.par_chunks_mut(slab).enumerate().for_each(|(i, values)| {
+        for (offset, value) in values.iter_mut().enumerate() {
+            if known[i * slab + offset] {
+                continue;
+            }
+            let v = [i, offset / grid.dims[2], offset % grid.dims[2]];
+            let cell = [0, 1, 2].map(|a| coarse.axes[a].cell[v[a]] as usize);
+            let level = if refined[coarse.cell_index(cell)] { middle } else { coarse };
+            *value = trilinear(&grid, &sampled, level, v);
+        }
     });
-    data
+}
+
+/// The trilinear interpolation at voxel `v` of the corners of its cell of `level`.
+fn trilinear(grid: &Grid, sampled: &[f32], level: &Level, v: [usize; 3]) -> f32 {
+    let located = [0, 1, 2].map(|a| level.axes[a].locate(v[a]));
+    let mut value = 0.0f64;
+    for c in 0..8 {
+        let mut corner = [0usize; 3];
+        let mut weight = 1.0;
+        for (a, &((lo, hi), t)) in located.iter().enumerate() {
+            let upper = c >> a & 1 == 1;
+            corner[a] = if upper { hi } else { lo };
+            weight *= if upper { t } else { 1.0 - t };
+        }
+        if weight != 0.0 {
+            value += weight * f64::from(sampled[grid.index(corner)]);
+        }
+    }
+    value as f32
 }
