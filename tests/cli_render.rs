@@ -264,3 +264,56 @@ fn demo_draws_the_mesh_beside_its_implicit_surface() {
     let agreement = iou(&mesh, &field);
     assert!(agreement > 0.6, "mesh and implicit agree on {agreement}");
 }
+
+#[test]
+fn a_solved_model_without_a_fit_grid_is_drawn_whole() {
+    // A ball of radius 1 at (2, 0, 0) through 120 points on its surface (value 0), its centre
+    // (value 1) and 40 points at radius 1.25 (value -0.25). A solved model has no fit grid,
+    // so it is marched through its bounds (the constraints') padded.
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("x,y,z,value\n");
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let point = |i: usize, n: usize, r: f64| {
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let s = (1.0 - z * z).sqrt();
+        let a = golden * i as f64;
+        [2.0 + r * s * a.cos(), r * s * a.sin(), r * z]
+    };
+    for i in 0..120 {
+        let [x, y, z] = point(i, 120, 1.0);
+        csv += &format!("{x},{y},{z},0\n");
+    }
+    csv += "2,0,0,1\n";
+    for i in 0..40 {
+        let [x, y, z] = point(i, 40, 1.25);
+        csv += &format!("{x},{y},{z},-0.25\n");
+    }
+    let (constraints, model) = (dir.path().join("ball.csv"), dir.path().join("ball.json"));
+    std::fs::write(&constraints, csv).unwrap();
+    run(implicitize().arg("solve").arg(&constraints).arg("--quiet").arg("-o").arg(&model));
+    let surface = dir.path().join("ball.obj");
+    run(implicitize()
+        .arg("mesh")
+        .arg(&model)
+        .args(["--resolution", "80", "--quiet", "-o"])
+        .arg(&surface));
+    let out = dir.path().join("ball.png");
+    run(implicitize()
+        .arg("render")
+        .arg(&model)
+        .arg("--compare")
+        .arg(&surface)
+        .args(["--size", "160", "160", "--quiet", "-o"])
+        .arg(&out));
+    let image = read_png(&out);
+    assert_eq!((image.0, image.1), (320, 160));
+    let (mesh, field) = (silhouette(&image, 0..160), silhouette(&image, 160..320));
+    let agreement = iou(&mesh, &field);
+    assert!(agreement >= 0.98, "the silhouettes agree on {agreement} of the union");
+    // The ball's outline is round: as wide as it is tall, within a pixel or two.
+    let rows: Vec<usize> =
+        (0..160).filter(|&y| field[y * 160..(y + 1) * 160].contains(&true)).collect();
+    let cols: Vec<usize> = (0..160).filter(|&x| (0..160).any(|y| field[y * 160 + x])).collect();
+    let (h, w) = (rows.len() as i64, cols.len() as i64);
+    assert!((h - w).abs() <= 2 && h > 40, "the ball is {w} x {h} pixels");
+}

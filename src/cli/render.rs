@@ -64,7 +64,7 @@ pub struct RenderCommand {
     #[arg(long, value_name = "MESH")]
     pub compare: Option<PathBuf>,
     /// The grid the goal is computed on for --color rreg.
-    #[command(flatten)]
+    #[command(flatten, next_help_heading = "Goal grid, for --color rreg")]
     pub grid: GridArgs,
 }
 
@@ -229,7 +229,10 @@ fn view(view: &[f64]) -> anyhow::Result<[f64; 2]> {
         [azimuth, elevation] if azimuth.is_finite() && elevation.is_finite() => {
             Ok([azimuth, elevation])
         }
-        _ => bail!("--view {view:?}: the azimuth and elevation must be finite numbers of degrees"),
+        _ => bail!(
+            "--view {}: the azimuth and elevation must be finite numbers of degrees",
+            view.iter().map(|a| a.to_string()).collect::<Vec<_>>().join(" ")
+        ),
     }
 }
 
