@@ -23,7 +23,7 @@ use implicitize::{Aabb, DVec3, Field, Grid, Mesh, polygonize, voxelize};
 use super::common::{GridArgs, Progress, read_mesh};
 
 /// The default view: a three-quarter view from the front right and a little above.
-pub const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
+const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
 
 /// The fraction of a model's longest extent added to its bounds on every side before marching
 /// when the model has no fit grid, so that a surface bulging a little past them is not clipped.
@@ -109,7 +109,7 @@ impl Shape {
 /// The box a model's function is marched through: the grid it was fitted on (its bounds and
 /// margins, where the fit measured the surface), or else its bounds grown on every side by
 /// [`MODEL_PAD`] of their longest extent.
-pub fn march_bounds(model: &Model) -> Aabb {
+fn march_bounds(model: &Model) -> Aabb {
     match model.grid() {
         Some(grid) => grid_box(grid),
         None => {
@@ -121,7 +121,7 @@ pub fn march_bounds(model: &Model) -> Aabb {
 }
 
 /// The box the voxels of `grid` fill.
-pub fn grid_box(grid: &Grid) -> Aabb {
+fn grid_box(grid: &Grid) -> Aabb {
     let [nx, ny, nz] = grid.dims;
     let last = DVec3::new(nx as f64, ny as f64, nz as f64) - 0.5;
     Aabb { min: grid.to_world(DVec3::splat(-0.5)), max: grid.to_world(last) }
@@ -333,7 +333,7 @@ pub fn compare_picture(
 }
 
 /// The size of one iteration's picture in a fit's snapshots.
-pub const SNAPSHOT_SIZE: (usize, usize) = (240, 180);
+const SNAPSHOT_SIZE: (usize, usize) = (240, 180);
 
 /// The pictures of a fit's iterations (`fit --snapshots DIR`, paper figure 1): each
 /// iteration's surface to `DIR/iteration-NN.png` as it comes, then all of them side by side to
