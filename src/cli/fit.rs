@@ -10,6 +10,7 @@ use implicitize::model::Model;
 use implicitize::{Mesh, mesh, polygonize, voxelize};
 
 use super::common::{GridArgs, Progress, read_mesh};
+use super::render::{Snapshots, compare_picture};
 
 /// How the constraints are made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -68,6 +69,10 @@ pub struct FitCommand {
     /// Also write the polygonized implicit surface (OBJ, PLY or STL).
     #[arg(long)]
     pub mesh_out: Option<PathBuf>,
+    /// Also draw each iteration's surface to DIR/iteration-NN.png and all of them side by side
+    /// to DIR/strip.png (paper figure 1).
+    #[arg(long, value_name = "DIR")]
+    pub snapshots: Option<PathBuf>,
     #[command(flatten)]
     pub fit: FitArgs,
 }
@@ -77,10 +82,15 @@ struct Outputs<'a> {
     model: &'a Path,
     report: Option<&'a Path>,
     mesh: Option<&'a Path>,
+    snapshots: Option<&'a Path>,
+    compare: Option<&'a Path>,
 }
 
 /// Runs `implicitize fit`.
 pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
+    if args.snapshots.is_some() && args.fit.method != Method::Iterative {
+        anyhow::bail!("--snapshots draws the iterations of --method iterative only");
+    }
     let mesh = read_mesh(&args.mesh, progress)?;
     let mesh_bytes = std::fs::metadata(&args.mesh).ok().map(|m| m.len());
     let name = args.mesh.file_stem().map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
@@ -88,6 +98,8 @@ pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
         model: &args.output,
         report: args.report.as_deref(),
         mesh: args.mesh_out.as_deref(),
+        snapshots: args.snapshots.as_deref(),
+        compare: None,
     };
     fit_and_write(&mesh, &args.mesh, &name, mesh_bytes, &args.fit, &outputs, progress)
 }
@@ -114,14 +126,22 @@ pub fn demo(args: &DemoCommand, progress: Progress) -> anyhow::Result<()> {
     let model = args.output.join("model.json");
     let report = args.output.join("report.json");
     let surface = args.output.join("surface.ply");
-    let outputs = Outputs { model: &model, report: Some(&report), mesh: Some(&surface) };
+    let compare = args.output.join("compare.png");
+    let outputs = Outputs {
+        model: &model,
+        report: Some(&report),
+        mesh: Some(&surface),
+        snapshots: None,
+        compare: Some(&compare),
+    };
     let mesh_bytes = Some(TRICERATOPS_OBJ.len() as u64);
     fit_and_write(&mesh, source, "triceratops", mesh_bytes, &args.fit, &outputs, progress)?;
     progress.line(format!(
-        "wrote {}, {} and {}",
+        "wrote {}, {}, {} and {}",
         model.display(),
         report.display(),
-        surface.display()
+        surface.display(),
+        compare.display()
     ));
     Ok(())
 }
@@ -141,13 +161,23 @@ fn fit_and_write(
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let density = voxelize::voxelize(mesh, &grid, &voxelize::VoxelizeOptions::default())?;
     let goal = Goal::from_density(density, &options.regularity);
+    let bounds = mesh.bounds().context("the mesh has no triangles")?;
+    let mut snapshots =
+        outputs.snapshots.map(|dir| Snapshots::new(dir, bounds, &grid)).transpose()?;
     let fitted = match args.method {
-        Method::Iterative => fit::fit(&goal, &options, |line, _| progress.line(line.line()))?,
+        Method::Iterative => fit::fit(&goal, &options, |line, implicit| {
+            progress.line(line.line());
+            if let Some(snapshots) = snapshots.as_mut() {
+                snapshots.take(line.iteration, implicit);
+            }
+        })?,
         Method::Naive => fit::naive::fit(mesh, &goal, &options)?,
     };
+    if let Some(snapshots) = snapshots {
+        snapshots.finish()?;
+    }
     let mut report = fitted.report;
     report.mesh_bytes = mesh_bytes;
-    let bounds = mesh.bounds().context("the mesh has no triangles")?;
     let mut model = Model::from_implicit(fitted.implicit, bounds, Some(grid));
     model.save(outputs.model)?;
     report.model_bytes = std::fs::metadata(outputs.model).ok().map(|m| m.len());
@@ -159,6 +189,9 @@ fn fit_and_write(
     if let Some(path) = outputs.mesh {
         let surface = polygonize::polygonize_field(&model, &grid);
         mesh::write(path, &surface)?;
+    }
+    if let Some(path) = outputs.compare {
+        compare_picture(mesh, &model, 800, 600)?.save_png(path)?;
     }
     progress.line(report.table(name));
     Ok(())

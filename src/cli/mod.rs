@@ -11,6 +11,7 @@ mod common;
 mod eval;
 mod fit;
 mod polygonize;
+mod render;
 mod solve;
 mod volume;
 
@@ -41,6 +42,8 @@ enum Command {
     Solve(solve::SolveArgs),
     /// Evaluate a model at points (inside positive, outside negative).
     Eval(eval::EvalArgs),
+    /// Draw a model or a mesh to a PNG, or the two side by side (paper figures 1, 3-5).
+    Render(render::RenderCommand),
 }
 
 /// Parses the command line and runs it.
@@ -55,6 +58,7 @@ pub fn run() -> ExitCode {
         Command::Sdf(args) => volume::run(args, volume::VolumeKind::SignedDistance, progress),
         Command::Solve(args) => solve::run(args, progress),
         Command::Eval(args) => eval::run(args, progress),
+        Command::Render(args) => render::run(args, progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
