@@ -70,7 +70,7 @@ pub struct FitOptions {
     /// Never add constraints beyond this many in all.
     pub max_constraints: usize,
     /// At most this fraction of the current count is added in one iteration (at least
-    /// `initial_constraints / 5`), greatest error first. The paper adds every candidate that
+    /// `initial_constraints / 2`), greatest error first. The paper adds every candidate that
     /// survives pruning; late in a fit, when E is small, that is hundreds at once, which pull on
     /// each other and overshoot. Growing by a fraction keeps the paper's order and pruning and
     /// lets the next iteration see what the last additions did.
@@ -311,7 +311,7 @@ pub fn solve(grid: &Grid, constraints: &[FitConstraint], kernel: Kernel) -> Resu
 /// How many constraints one iteration may add to `count` (see [`FitOptions::max_growth`]).
 fn added_limit(count: usize, options: &FitOptions) -> usize {
     let growth = (count as f64 * options.max_growth).ceil() as usize;
-    growth.max(options.initial_constraints / 5).min(options.max_constraints.saturating_sub(count))
+    growth.max(options.initial_constraints / 2).min(options.max_constraints.saturating_sub(count))
 }
 
 /// Whether `a` is a better model than `b`: smaller E, then smaller RMS (paper 5.4), the RMS

@@ -189,7 +189,11 @@ pub fn evaluate_on_grid<F: Field + ?Sized>(
 
 /// The voxels of a level's lattice, in increasing order: all of them, or with `within`, those
 /// in a refined cell of the coarser level that are not yet known.
-fn lattice_voxels(grid: &Grid, level: &Level, within: Option<(&Level, &[bool], &[bool])>) -> Vec<usize> {
+fn lattice_voxels(
+    grid: &Grid,
+    level: &Level,
+    within: Option<(&Level, &[bool], &[bool])>,
+) -> Vec<usize> {
     let [ax, ay, az] = &level.axes;
     ax.nodes
         .par_iter()
@@ -258,9 +262,14 @@ fn fine_cells(coarse: &Level, middle: &Level, refined: &[bool], samples: &Sample
                 .filter(|&cell| {
                     let spans = middle.spans(cell);
                     let corners = samples.corners(spans);
-                    let half_diagonal =
-                        0.5 * spans.iter().map(|(lo, hi)| ((hi - lo) as f64).powi(2)).sum::<f64>().sqrt();
-                    let nearest = corners.iter().map(|v| f64::from(v.abs())).fold(f64::INFINITY, f64::min);
+                    let half_diagonal = 0.5
+                        * spans
+                            .iter()
+                            .map(|(lo, hi)| ((hi - lo) as f64).powi(2))
+                            .sum::<f64>()
+                            .sqrt();
+                    let nearest =
+                        corners.iter().map(|v| f64::from(v.abs())).fold(f64::INFINITY, f64::min);
                     sign_changes(&corners) || nearest <= SLOPE_SAFETY * slope * half_diagonal
                 })
                 .map(|cell| middle.cell_index(cell))
