@@ -12,8 +12,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 PYTHON=${PYTHON:-/tmp/implicitize-peers/bin/python}
-PEERS=${PEERS:-/work/shared/bench/peers.py}
-BUNNY=${BUNNY:-/work/shared/models/bunny.obj}
+PEERS=${PEERS:-../shared/bench/peers.py}
+BUNNY=${BUNNY:-../shared/models/bunny.obj}
 REPEAT=${REPEAT:-5}
 DIMS="176 220 218"
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Times `implicitize sdf` against the Python peer (libigl's fast winding number + SciPy's
-# exact EDT, /work/shared/bench/peers.py) on the same grid in the same run, as whole
+# exact EDT, ../shared/bench/peers.py) on the same grid in the same run, as whole
 # processes, and prints a table with the ratio and the agreement of inside/outside.
 #
 # Usage: scripts/bench-volume.sh [MESH] [RESOLUTION] [RUNS]
@@ -9,10 +9,10 @@
 # /tmp/peers-python.txt).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-mesh=${1:-/work/shared/models/bunny.obj}
+mesh=${1:-../shared/models/bunny.obj}
 resolution=${2:-220}
 runs=${3:-3}
-peers=${PEERS:-/work/shared/bench/peers.py}
+peers=${PEERS:-../shared/bench/peers.py}
 python=${PYTHON:-$(cat /tmp/peers-python.txt 2>/dev/null || true)}
 [[ -x $python ]] || { echo "no peer Python: set PYTHON or run setup-peers.sh" >&2; exit 1; }
 cargo build --release --quiet
