@@ -14,6 +14,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use super::{FitConstraint, FitOptions, FitReport, Goal, IterationReport, Timings};
+use crate::distance;
 use crate::error::Result;
 use crate::geometry::DVec3;
 use crate::mesh::Mesh;
@@ -72,12 +73,25 @@ fn naive_constraints(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Vec<FitC
         if boundary.iter().all(|c| c.position.distance(position) >= options.min_constraint_spacing)
         {
             boundary.push(FitConstraint { position, value: 0.0, error: 0.0 });
-            let outside = position + normals[v] * NORMAL_OFFSET;
+            let outside = outward_offset(goal, position, normals[v]);
             exterior.push(FitConstraint { position: outside, value: -NORMAL_OFFSET, error: 0.0 });
         }
     }
     boundary.extend(exterior);
     boundary
+}
+
+/// The point `NORMAL_OFFSET` voxels from `position` along the normal, on whichever side the
+/// goal says is outside: meshes with inward or inconsistently oriented faces (the horse's PLY
+/// faces inward) still get their exterior constraints outside.
+fn outward_offset(goal: &Goal, position: DVec3, normal: DVec3) -> DVec3 {
+    let along = position + normal * NORMAL_OFFSET;
+    let against = position - normal * NORMAL_OFFSET;
+    if distance::sample(&goal.sd, against) < distance::sample(&goal.sd, along) {
+        against
+    } else {
+        along
+    }
 }
 
 /// Area-weighted unit vertex normals (zero for a vertex no triangle uses).
