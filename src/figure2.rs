@@ -61,23 +61,30 @@ pub fn size(grid: &Grid, scale: usize) -> (usize, usize) {
     (3 * w + 4 * GAP, 2 * h + 3 * GAP)
 }
 
-/// Draws figure 2 for `goal` (a 2D goal) and the `snapshots` of its fit, at `scale` picture
-/// pixels per grid pixel.
-///
-/// Fails when the goal's grid is not 2D, `scale` is 0, or the picture would be larger than
-/// [`MAX_SIDE`] along a side.
-pub fn draw(goal: &Goal, snapshots: &Snapshots, scale: usize) -> Result<Image> {
-    let grid = *goal.grid();
+/// Checks that the figure of a goal on `grid` can be drawn at `scale`: the grid is 2D, `scale`
+/// is not 0, and the picture is at most [`MAX_SIDE`] pixels along a side.
+pub fn check(grid: &Grid, scale: usize) -> Result<()> {
     if !grid.is_2d() {
         return Err(Error::invalid("figure 2", "the goal is not on a 2D grid"));
     }
-    let (width, height) = size(&grid, scale);
+    let (width, height) = size(grid, scale);
     if scale == 0 || width > MAX_SIDE || height > MAX_SIDE {
         return Err(Error::invalid(
             "figure 2",
             format!("a {width} x {height} picture at scale {scale} is not drawable"),
         ));
     }
+    Ok(())
+}
+
+/// Draws figure 2 for `goal` (a 2D goal) and the `snapshots` of its fit, at `scale` picture
+/// pixels per grid pixel.
+///
+/// Fails where [`check`] does.
+pub fn draw(goal: &Goal, snapshots: &Snapshots, scale: usize) -> Result<Image> {
+    let grid = *goal.grid();
+    check(&grid, scale)?;
+    let (width, height) = size(&grid, scale);
     let panel = Panel::new(grid, scale);
     let inside = |values: &[f64]| values.iter().map(|&v| v > 0.0).collect::<Vec<bool>>();
     let early = inside(&panel.values(snapshots.early));
@@ -292,5 +299,29 @@ fn label(figure: &mut Image, n: usize, left: usize, top: usize) {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn panels_b_and_c_show_iterations_3_and_4_or_the_first_two() {
+        assert_eq!(early_iterations(14), (3, 4));
+        assert_eq!(early_iterations(4), (3, 4));
+        assert_eq!(early_iterations(3), (1, 2));
+        assert_eq!(early_iterations(1), (1, 1));
+    }
+
+    #[test]
+    fn signed_distances_darken_away_from_zero() {
+        let range = Range { positive: 10.0, negative: 40.0 };
+        let [r0, g0, b0, _] = diverging(0.5, range);
+        let [r1, g1, b1, _] = diverging(10.0, range);
+        assert!(r0 > b0 && r1 > b1 && g1 < g0 && r1 < r0);
+        let [r2, _, b2, _] = diverging(-5.0, range);
+        let [r3, _, b3, _] = diverging(-40.0, range);
+        assert!(b2 > r2 && b3 > r3 && b3 < b2);
     }
 }

@@ -81,7 +81,12 @@ impl Luminance {
         let mut decoder = png::Decoder::new(BufReader::new(file));
         decoder.set_transformations(png::Transformations::EXPAND);
         let fail = |e: png::DecodingError| match e {
-            png::DecodingError::IoError(io) => Error::io(path, io),
+            png::DecodingError::IoError(io) if io.kind() != std::io::ErrorKind::UnexpectedEof => {
+                Error::io(path, io)
+            }
+            png::DecodingError::IoError(_) => {
+                Error::parse(path, None, "not a PNG image, or a truncated one")
+            }
             other => Error::parse(path, None, format!("not a readable PNG image: {other}")),
         };
         let mut reader = decoder.read_info().map_err(fail)?;
@@ -281,7 +286,7 @@ pub fn density(
     }
     let grid = Grid {
         dims,
-        origin: [-(margins.left as f64), -(margins.bottom as f64), 0.0],
+        origin: [0.0 - margins.left as f64, 0.0 - margins.bottom as f64, 0.0],
         voxel_size: 1.0,
     };
     let mut volume = Volume::filled(grid, 0.0f32);
@@ -365,15 +370,18 @@ mod tests {
     }
 
     #[test]
-    fn a_sharp_edge_gives_binary_densities_and_a_blurred_one_a_ramp() {
+    fn a_blurred_edge_moves_with_the_threshold_to_sub_pixel_precision() {
+        // Black up to pixel 9, white from 10: the edge is at x = 9.5.
         let edge = image(20, 4, |x, _| if x < 10 { 0.0 } else { 1.0 });
         let sharp = threshold(&edge, &ImageOptions::default());
         assert_eq!(&sharp[..20], &[[1.0; 10], [0.0; 10]].concat()[..]);
-        let soft = threshold(&edge.blurred(2.0), &ImageOptions::default());
-        // The contour stays between pixels 9 and 10, the densities fall through 1/2 there.
-        assert!(soft[9] > 0.5 && soft[10] < 0.5, "{:?}", &soft[..20]);
-        assert!((soft[9] - 0.5 - (0.5 - soft[10])).abs() < 1e-4);
-        assert!(soft[9] < 1.0 && soft[10] > 0.0, "{:?}", &soft[..20]);
+        // Blurred by sigma = 2, the luminance is Phi((x - 9.5) / 2): it crosses 0.45 at
+        // x = 9.5 - 2 * 0.1257 = 9.249, a quarter pixel right of pixel 9's centre.
+        let options = ImageOptions { threshold: 0.45, ..ImageOptions::default() };
+        let soft = threshold(&edge.blurred(2.0), &options);
+        assert_eq!((soft[8], soft[10]), (1.0, 0.0), "{:?}", &soft[..20]);
+        let crossing = 9.0 + (soft[9] - 0.5);
+        assert!((crossing - 9.249).abs() < 0.03, "{crossing}: {:?}", &soft[..20]);
     }
 
     #[test]

@@ -63,6 +63,10 @@ pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
         ImageOptions { threshold: args.threshold, blur: args.blur, invert: args.invert };
     let (density, bounds) = goal2d::read_density(&args.image, &image_options)?;
     let grid = density.grid;
+    let figure_scale = args.figure_scale.unwrap_or_else(|| default_scale(grid.dims));
+    if args.figure.is_some() {
+        figure2::check(&grid, figure_scale).context("--figure-scale")?;
+    }
     progress.line(format!(
         "{}: {} x {} pixels with margins",
         args.image.display(),
@@ -92,8 +96,7 @@ pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
             next: &early[c.min(early.len()) - 1],
             last: &fitted.implicit,
         };
-        let scale = args.figure_scale.unwrap_or_else(|| default_scale(grid.dims));
-        figure2::draw(&goal, &snapshots, scale)?.save_png(path)?;
+        figure2::draw(&goal, &snapshots, figure_scale)?.save_png(path)?;
     }
     let mut model = Model::from_implicit(fitted.implicit, bounds, Some(grid));
     model.save(&args.output)?;
