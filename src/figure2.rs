@@ -2,12 +2,15 @@
 //! section 4.3 finds where the next constraints go.
 //!
 //! ```text
-//! (a) goal shape, with the boundary      (b) contour at an early      (c) contour at the next
-//!     constraints added between (b)          iteration                    iteration
-//!     and (c) as magenta dots
+//! (a) goal shape, with the constraints   (b) contour at an early      (c) contour at the next
+//!     added between (b) and (c) as dots      iteration                    iteration
 //! (d) signed distance of (a), with the   (e) signed distance of (b),  (f) the final contour
 //!     contour of (b) over it                 with the boundary of (a)
 //! ```
+//!
+//! The dots on (a) are magenta for the boundary constraints, found along the goal's boundary
+//! on (e), as in the paper, and cyan for the interior and exterior constraints, found along the
+//! contour on (d), which the paper does not show.
 //!
 //! As in the paper, contour panels are black inside (positive values) and white outside;
 //! signed distances are red where positive and blue where negative, darker further from 0
@@ -36,6 +39,7 @@ const GREY: [u8; 4] = [150, 150, 150, 255];
 const BLACK: [u8; 4] = [0, 0, 0, 255];
 const WHITE: [u8; 4] = [255, 255, 255, 255];
 const MAGENTA: [u8; 4] = [230, 0, 230, 255];
+const CYAN: [u8; 4] = [0, 200, 230, 255];
 
 /// The models the figure is drawn from, all fitted to the same 2D goal.
 #[derive(Debug, Clone, Copy)]
@@ -94,8 +98,8 @@ pub fn draw(goal: &Goal, snapshots: &Snapshots, scale: usize) -> Result<Image> {
     let range = Range::of(&goal.sd).union(Range::of(&early_sd));
 
     let mut a = panel.contour(&goal_inside);
-    for p in added_boundary_constraints(snapshots.early, snapshots.next) {
-        panel.dot(&mut a, p, MAGENTA);
+    for (p, value) in added_constraints(snapshots.early, snapshots.next) {
+        panel.dot(&mut a, p, if value == 0.0 { MAGENTA } else { CYAN });
     }
     let b = panel.contour(&early);
     let c = panel.contour(&inside(&panel.values(snapshots.next)));
@@ -148,15 +152,14 @@ impl Range {
     }
 }
 
-/// The positions (model units) of the boundary constraints of `next` that `early` lacks.
-fn added_boundary_constraints(early: &Implicit, next: &Implicit) -> Vec<DVec3> {
+/// The positions (model units) and values of the constraints of `next` that `early` lacks.
+fn added_constraints(early: &Implicit, next: &Implicit) -> Vec<(DVec3, f64)> {
     next.constraints()
         .iter()
-        .filter(|c| c.value() == 0.0)
         .filter(|c| early.constraints().iter().all(|o| o.position() != c.position()))
         .map(|c| {
             let p = c.position();
-            DVec3::new(p[0], p.get(1).copied().unwrap_or(0.0), 0.0)
+            (DVec3::new(p[0], p.get(1).copied().unwrap_or(0.0), 0.0), c.value())
         })
         .collect()
 }
@@ -231,7 +234,7 @@ impl Panel {
         let s = self.scale as f64;
         let top = (self.grid.dims[1] - 1) as f64;
         let (cu, cv) = ((g.x + 0.5) * s - 0.5, (top - g.y + 0.5) * s - 0.5);
-        let radius = (0.9 * s).max(2.5);
+        let radius = (0.9 * s).max(3.5);
         let reach = radius.ceil() as isize;
         for dv in -reach..=reach {
             for du in -reach..=reach {

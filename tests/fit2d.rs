@@ -188,6 +188,17 @@ fn letters_are_fitted_within_two_pixels_and_figure_2_is_drawn() {
         let ([r, _, b], [r2, _, b2]) = (panel(n, 21, 40), panel(n, 60, 60));
         assert!(r > b && b2 > r2, "panel {n}");
     }
+    // Panel (a) has magenta dots if boundary constraints were added between the iterations of
+    // (b) and (c), and cyan dots if interior or exterior ones were.
+    let iterations = report["per_iteration"].as_array().unwrap();
+    assert!(iterations.len() >= 4, "the fit shows iterations 3 and 4");
+    let added = |kind: &str| {
+        iterations[3]["constraints"][kind].as_u64().unwrap()
+            > iterations[2]["constraints"][kind].as_u64().unwrap()
+    };
+    let panel_a_has = |color: [u8; 3]| (0..180).any(|x| (0..90).any(|y| panel(0, x, y) == color));
+    assert_eq!(panel_a_has([230, 0, 230]), added("boundary"));
+    assert_eq!(panel_a_has([0, 200, 230]), added("interior") || added("exterior"));
 }
 
 #[test]
