@@ -16,6 +16,7 @@
 //! | save and load models | [`model`] | |
 //! | error metrics E, Ew, RMS and the radius of regularity | [`metrics`] | 4.3 |
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
+//! | a 2D goal from a PNG image; figure 2 of a 2D fit | [`goal2d`], [`figure2`] | figure 2 |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
 //!
@@ -27,8 +28,10 @@
 pub mod distance;
 pub mod error;
 pub mod field;
+pub mod figure2;
 pub mod fit;
 pub mod geometry;
+pub mod goal2d;
 pub mod grid;
 pub mod mesh;
 pub mod metrics;

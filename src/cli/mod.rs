@@ -10,6 +10,7 @@ use clap::{Parser, Subcommand};
 mod common;
 mod eval;
 mod fit;
+mod fit2d;
 mod polygonize;
 mod render;
 mod solve;
@@ -32,6 +33,8 @@ enum Command {
     Demo(fit::DemoCommand),
     /// Fit a variational implicit surface to a mesh (paper 5).
     Fit(fit::FitCommand),
+    /// Fit a 2D implicit curve to the shapes of a PNG image, and draw the paper's figure 2.
+    Fit2d(fit2d::Fit2dCommand),
     /// Polygonize a model's zero set into a mesh file.
     Mesh(polygonize::MeshCommand),
     /// Voxelize a mesh: densities in [0, 1], 1 inside (paper 4.1).
@@ -53,6 +56,7 @@ pub fn run() -> ExitCode {
     let result: anyhow::Result<()> = match &cli.command {
         Command::Demo(args) => fit::demo(args, progress),
         Command::Fit(args) => fit::run(args, progress),
+        Command::Fit2d(args) => fit2d::run(args, progress),
         Command::Mesh(args) => polygonize::run(args, progress),
         Command::Voxelize(args) => volume::run(args, volume::VolumeKind::Density, progress),
         Command::Sdf(args) => volume::run(args, volume::VolumeKind::SignedDistance, progress),

@@ -1,0 +1,123 @@
+//! `implicitize fit2d`: the iterative fit of paper 5 on a 2D goal shape read from a PNG image,
+//! and the paper's figure 2 drawn from the run.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use implicitize::figure2::{self, Snapshots};
+use implicitize::fit::{self, FitOptions, Goal};
+use implicitize::goal2d::{self, ImageOptions};
+use implicitize::model::Model;
+use implicitize::rbf::Implicit;
+
+use super::common::Progress;
+
+/// Arguments of `implicitize fit2d`.
+#[derive(Debug, Args)]
+pub struct Fit2dCommand {
+    /// The goal image (PNG; grey, RGB, RGBA or palette, 8 or 16 bits). Pixel (x, y) is the point
+    /// (x, height - 1 - y) of the model, in pixels.
+    pub image: PathBuf,
+    /// The model file to write (JSON).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write the fit report (JSON: the paper's Table 1 and 2 columns, in pixels).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Also draw the paper's figure 2 from the run (PNG, 3 x 2 panels).
+    #[arg(long)]
+    pub figure: Option<PathBuf>,
+    /// Picture pixels per image pixel in the figure (default: panels at least 240 pixels).
+    #[arg(long)]
+    pub figure_scale: Option<usize>,
+    /// Luminance in [0, 1] below which a pixel is inside (above which with --invert).
+    #[arg(long, default_value_t = ImageOptions::default().threshold)]
+    pub threshold: f32,
+    /// Blur the image by a Gaussian of this standard deviation (pixels) before thresholding.
+    #[arg(long, default_value_t = ImageOptions::default().blur)]
+    pub blur: f64,
+    /// Light pixels are inside instead of dark ones.
+    #[arg(long)]
+    pub invert: bool,
+    /// Seed of the random choice of initial constraints (same seed, same model).
+    #[arg(long, default_value_t = FitOptions::default().seed)]
+    pub seed: u64,
+    /// Stop after this many iterations.
+    #[arg(long, default_value_t = FitOptions::default().max_iterations)]
+    pub max_iterations: usize,
+    /// Stop once the max error E is at most this many pixels.
+    #[arg(long, default_value_t = FitOptions::default().target_error)]
+    pub target_error: f32,
+    /// Never use more constraints than this.
+    #[arg(long, default_value_t = FitOptions::default().max_constraints)]
+    pub max_constraints: usize,
+}
+
+/// The least side of a figure panel the default scale gives, in picture pixels.
+const MIN_PANEL: usize = 240;
+
+/// Runs `implicitize fit2d`.
+pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
+    let image_options =
+        ImageOptions { threshold: args.threshold, blur: args.blur, invert: args.invert };
+    let (density, bounds) = goal2d::read_density(&args.image, &image_options)?;
+    let grid = density.grid;
+    let figure_scale = args.figure_scale.unwrap_or_else(|| default_scale(grid.dims));
+    if args.figure.is_some() {
+        figure2::check(&grid, figure_scale).context("--figure-scale")?;
+    }
+    progress.line(format!(
+        "{}: {} x {} pixels with margins",
+        args.image.display(),
+        grid.dims[0],
+        grid.dims[1]
+    ));
+    let options = FitOptions {
+        seed: args.seed,
+        max_iterations: args.max_iterations,
+        target_error: args.target_error,
+        max_constraints: args.max_constraints,
+        ..FitOptions::default()
+    };
+    let goal = Goal::from_density(density, &options.regularity);
+    let mut early: Vec<Implicit> = Vec::new();
+    let fitted = fit::fit(&goal, &options, |line, implicit| {
+        progress.line(line.line());
+        if args.figure.is_some() && early.len() < 4 {
+            early.push(implicit.clone());
+        }
+    })?;
+    let mut report = fitted.report;
+    if let Some(path) = &args.figure {
+        let (b, c) = figure2::early_iterations(report.iterations);
+        let snapshots = Snapshots {
+            early: &early[b.min(early.len()) - 1],
+            next: &early[c.min(early.len()) - 1],
+            last: &fitted.implicit,
+        };
+        figure2::draw(&goal, &snapshots, figure_scale)?.save_png(path)?;
+    }
+    let mut model = Model::from_implicit(fitted.implicit, bounds, Some(grid));
+    model.save(&args.output)?;
+    report.model_bytes = std::fs::metadata(&args.output).ok().map(|m| m.len());
+    model.set_report(serde_json::to_value(&report)?);
+    model.save(&args.output)?;
+    if let Some(path) = &args.report {
+        write_report(path, &report)?;
+    }
+    let name = args.image.file_stem().map_or("image".into(), |s| s.to_string_lossy().into_owned());
+    progress.line(report.table(&name));
+    Ok(())
+}
+
+/// The figure scale that makes each panel's longer side at least [`MIN_PANEL`] pixels.
+fn default_scale(dims: [usize; 3]) -> usize {
+    MIN_PANEL.div_ceil(dims[0].max(dims[1]).max(1)).max(1)
+}
+
+fn write_report(path: &Path, report: &fit::FitReport) -> anyhow::Result<()> {
+    let json = serde_json::to_string_pretty(report)?;
+    std::fs::write(path, json + "\n")
+        .with_context(|| format!("{}: cannot write the report", path.display()))
+}
