@@ -8,8 +8,10 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod common;
+mod csg;
 mod eval;
 mod fit;
+mod morph;
 mod polygonize;
 mod solve;
 mod volume;
@@ -41,6 +43,10 @@ enum Command {
     Solve(solve::SolveArgs),
     /// Evaluate a model at points (inside positive, outside negative).
     Eval(eval::EvalArgs),
+    /// Combine two models: union, intersection or difference, sharp or blended (paper 1).
+    Csg(csg::CsgArgs),
+    /// Morph one model into another: a mesh per frame and a picture strip (paper 1, 7).
+    Morph(morph::MorphArgs),
 }
 
 /// Parses the command line and runs it.
@@ -55,6 +61,8 @@ pub fn run() -> ExitCode {
         Command::Sdf(args) => volume::run(args, volume::VolumeKind::SignedDistance, progress),
         Command::Solve(args) => solve::run(args, progress),
         Command::Eval(args) => eval::run(args, progress),
+        Command::Csg(args) => csg::run(args, progress),
+        Command::Morph(args) => morph::run(args, progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
