@@ -1,4 +1,5 @@
 //! Topology of triangle meshes for the CSG and morph tests: closedness, components, genus.
+#![allow(dead_code)]
 
 use std::collections::HashMap;
 
