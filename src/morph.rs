@@ -10,13 +10,22 @@
 //!   `t = 0` and `t = 1` it is exactly A and B (scaled by a positive factor, so the same shapes).
 //! * **Variational**: the shape transformation of Turk and O'Brien (SIGGRAPH 1999). The
 //!   constraints of A are placed at time 0 and those of B at time `L`, as 4D points
-//!   `(x, y, z, w)`, and one variational implicit function is solved through all of them in 4D
-//!   ([`Implicit::solve`] with `dim = 4`); the frame at `t` is its slice at `w = t L`. The time
-//!   axis is stretched to `L`, the largest side of the morph's bounds, so that time and space
-//!   weigh alike in the radial distances: with `L` much smaller than the shapes the two ends
-//!   would interfere and the slices at the ends would drift from A and B. The ends interpolate
-//!   A's and B's constraints exactly but are not identical to A and B between constraints. The
-//!   solve is dense: its cost grows with the cube of the constraints of A and B together.
+//!   `(x, y, z, w)`, and one variational implicit function `g` is solved through all of them in
+//!   4D ([`Implicit::solve`] with `dim = 4`); the frame at `t` is its slice at `w = t L`, plus
+//!   an end correction:
+//!
+//!   ```text
+//!   f_t(x) = g(x, t L) + (1 - t) (a(x) - g(x, 0)) + t (b(x) - g(x, L))
+//!   ```
+//!
+//!   The slices `g(x, 0)` and `g(x, L)` interpolate A's and B's constraints but differ from A
+//!   and B between them, the more so the closer the two ends are in time; the correction
+//!   vanishes at every constraint and makes the first and last frames A and B (up to rounding).
+//!   `L` is [`MorphOptions::time_scale`] times the largest side of the morph's bounds: long
+//!   enough that the ends' slices stay close to A and B (the correction small), short enough that
+//!   the in-between shapes keep detail (at `L` equal to the shapes' size the middle frames are
+//!   far from every constraint in 4D and come out as smooth blobs). The solve is dense: its
+//!   cost grows with the cube of the constraints of A and B together.
 //!
 //! ## Comparable scales
 //! Both methods first divide each model's values by its distance scale
@@ -55,7 +64,7 @@ pub enum Method {
 }
 
 /// The options of a morph.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MorphOptions {
     /// The method.
     pub method: Method,
@@ -63,6 +72,20 @@ pub struct MorphOptions {
     pub align: bool,
     /// The kernel of the 4D solve of the variational method.
     pub kernel: Kernel,
+    /// The variational method's time separation `L` of the two ends, as a fraction of the
+    /// largest side of the morph's bounds (default 0.25).
+    pub time_scale: f64,
+}
+
+impl Default for MorphOptions {
+    fn default() -> Self {
+        MorphOptions {
+            method: Method::default(),
+            align: false,
+            kernel: Kernel::default(),
+            time_scale: 0.25,
+        }
+    }
 }
 
 /// The map `x -> to + scale (x - from)`: a translation and a uniform scaling.
@@ -133,16 +156,35 @@ impl Placed {
     }
 }
 
+/// The 4D function of the variational method and the time `L` of its end.
 #[derive(Debug, Clone)]
-enum Kind {
-    Blend { source: Placed, target: Placed },
-    Variational { implicit: Implicit, duration: f64 },
+struct SpaceTime {
+    implicit: Implicit,
+    duration: f64,
+}
+
+impl SpaceTime {
+    fn value(&self, p: DVec3, w: f64) -> f64 {
+        self.implicit.value_at(&[p.x, p.y, p.z, w])
+    }
+
+    fn gradient(&self, p: DVec3, w: f64) -> DVec3 {
+        let g = self.implicit.gradient_at(&[p.x, p.y, p.z, w]);
+        DVec3::new(g[0], g[1], g[2])
+    }
+
+    fn values(&self, points: &[DVec3], w: f64) -> Vec<f64> {
+        let flat: Vec<f64> = points.iter().flat_map(|p| [p.x, p.y, p.z, w]).collect();
+        self.implicit.values_flat(&flat)
+    }
 }
 
 /// A morph from a source model to a target model; see the [module doc](self).
 #[derive(Debug, Clone)]
 pub struct Morph {
-    kind: Kind,
+    source: Placed,
+    target: Placed,
+    space_time: Option<SpaceTime>,
     bounds: Aabb,
     placement: Similarity,
 }
@@ -151,8 +193,9 @@ impl Morph {
     /// The morph from `source` to `target` with `options`.
     ///
     /// # Errors
-    /// A model that is not 3D; for the variational method, a model that is not a variational
-    /// implicit function (a CSG composite), or a 4D solve that fails (see [`Implicit::solve`]).
+    /// A model that is not 3D, a time scale that is not finite and positive; for the
+    /// variational method, a model that is not a variational implicit function (a CSG
+    /// composite), or a 4D solve that fails (see [`Implicit::solve`]).
     pub fn new(source: &Model, target: &Model, options: &MorphOptions) -> Result<Morph> {
         for (name, model) in [("the source", source), ("the target", target)] {
             if model.dim() != 3 {
@@ -170,29 +213,38 @@ impl Morph {
         let moved = placement.apply_box(&target.bounds());
         let a = source.bounds();
         let bounds = Aabb { min: a.min.min(moved.min), max: a.max.max(moved.max) };
-        let kind = match options.method {
-            Method::Blend => Kind::Blend {
-                source: Placed {
-                    model: source.clone(),
-                    scale: distance_scale(source.shape()),
-                    placement: Similarity::IDENTITY,
-                },
-                target: Placed {
-                    model: target.clone(),
-                    scale: distance_scale(target.shape()),
-                    placement,
-                },
-            },
+        if !(options.time_scale.is_finite() && options.time_scale > 0.0) {
+            return Err(Error::invalid(
+                "morph",
+                format!("the time scale {} is not finite and positive", options.time_scale),
+            ));
+        }
+        let space_time = match options.method {
+            Method::Blend => None,
             Method::Variational => {
-                let duration = bounds.size().max_element();
-                let duration = if duration > 0.0 { duration } else { 1.0 };
+                let side = bounds.size().max_element();
+                let duration = options.time_scale * if side > 0.0 { side } else { 1.0 };
                 let mut constraints = space_time(source, "the source", &Similarity::IDENTITY, 0.0)?;
                 constraints.extend(space_time(target, "the target", &placement, duration)?);
                 let implicit = Implicit::solve(4, options.kernel, &constraints)?;
-                Kind::Variational { implicit, duration }
+                Some(SpaceTime { implicit, duration })
             }
         };
-        Ok(Morph { kind, bounds, placement })
+        Ok(Morph {
+            source: Placed {
+                model: source.clone(),
+                scale: distance_scale(source.shape()),
+                placement: Similarity::IDENTITY,
+            },
+            target: Placed {
+                model: target.clone(),
+                scale: distance_scale(target.shape()),
+                placement,
+            },
+            space_time,
+            bounds,
+            placement,
+        })
     }
 
     /// A box holding both shapes (B as placed): where to polygonize or draw the frames.
@@ -210,12 +262,9 @@ impl Morph {
         Frame { morph: self, t }
     }
 
-    /// The variational method's 4D function, if that is the method.
-    pub fn implicit(&self) -> Option<&Implicit> {
-        match &self.kind {
-            Kind::Variational { implicit, .. } => Some(implicit),
-            Kind::Blend { .. } => None,
-        }
+    /// The variational method's 4D function `g` and the time `L` of B, if that is the method.
+    pub fn space_time(&self) -> Option<(&Implicit, f64)> {
+        self.space_time.as_ref().map(|s| (&s.implicit, s.duration))
     }
 }
 
@@ -282,44 +331,51 @@ impl Frame<'_> {
 impl Field for Frame<'_> {
     /// The frame's value: positive inside, negative outside.
     fn value(&self, p: DVec3) -> f64 {
-        match &self.morph.kind {
-            Kind::Blend { source, target } => {
-                (1.0 - self.t) * source.value(p) + self.t * target.value(p)
-            }
-            Kind::Variational { implicit, duration } => {
-                implicit.value_at(&[p.x, p.y, p.z, self.t * duration])
+        let (m, t) = (self.morph, self.t);
+        let (a, b) = (m.source.value(p), m.target.value(p));
+        match &m.space_time {
+            None => (1.0 - t) * a + t * b,
+            Some(g) => {
+                g.value(p, t * g.duration)
+                    + (1.0 - t) * (a - g.value(p, 0.0))
+                    + t * (b - g.value(p, g.duration))
             }
         }
     }
 
     /// The frame's spatial gradient, pointing inside.
     fn gradient(&self, p: DVec3) -> DVec3 {
-        match &self.morph.kind {
-            Kind::Blend { source, target } => {
-                (1.0 - self.t) * source.gradient(p) + self.t * target.gradient(p)
-            }
-            Kind::Variational { implicit, duration } => {
-                let g = implicit.gradient_at(&[p.x, p.y, p.z, self.t * duration]);
-                DVec3::new(g[0], g[1], g[2])
+        let (m, t) = (self.morph, self.t);
+        let (a, b) = (m.source.gradient(p), m.target.gradient(p));
+        match &m.space_time {
+            None => (1.0 - t) * a + t * b,
+            Some(g) => {
+                g.gradient(p, t * g.duration)
+                    + (1.0 - t) * (a - g.gradient(p, 0.0))
+                    + t * (b - g.gradient(p, g.duration))
             }
         }
     }
 
-    /// The frame's values at many points: each model (or the 4D function) vectorized and in
-    /// parallel.
+    /// The frame's values at many points, each function vectorized and in parallel; a term
+    /// whose weight is zero (an end of the morph) is not evaluated.
     fn values(&self, points: &[DVec3]) -> Vec<f64> {
-        match &self.morph.kind {
-            Kind::Blend { source, target } => {
-                let t = self.t;
-                let a = if t < 1.0 { source.values(points) } else { vec![0.0; points.len()] };
-                let b = if t > 0.0 { target.values(points) } else { vec![0.0; points.len()] };
-                a.iter().zip(&b).map(|(a, b)| (1.0 - t) * a + t * b).collect()
+        let (m, t) = (self.morph, self.t);
+        let mut out = vec![0.0; points.len()];
+        let mut add = |weight: f64, values: &dyn Fn() -> Vec<f64>| {
+            if weight != 0.0 {
+                for (o, v) in out.iter_mut().zip(values()) {
+                    *o += weight * v;
+                }
             }
-            Kind::Variational { implicit, duration } => {
-                let w = self.t * duration;
-                let flat: Vec<f64> = points.iter().flat_map(|p| [p.x, p.y, p.z, w]).collect();
-                implicit.values_flat(&flat)
-            }
+        };
+        add(1.0 - t, &|| m.source.values(points));
+        add(t, &|| m.target.values(points));
+        if let Some(g) = &m.space_time {
+            add(1.0, &|| g.values(points, t * g.duration));
+            add(-(1.0 - t), &|| g.values(points, 0.0));
+            add(-t, &|| g.values(points, g.duration));
         }
+        out
     }
 }

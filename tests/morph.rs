@@ -61,10 +61,12 @@ fn check_morph(method: Method) {
         topology::assert_closed(&surface, &format!("{method:?} at t = {t}"));
         inside.push(surface);
     }
-    let genus_ends = [inside[0].clone(), inside[times.len() - 1].clone()].map(|m| topology::euler_characteristic(&m));
+    let genus_ends = [inside[0].clone(), inside[times.len() - 1].clone()]
+        .map(|m| topology::euler_characteristic(&m));
     assert_eq!(genus_ends, [2, 0], "{method:?}: a sphere at the start, a torus at the end");
     // The in-between frames are neither end: the shape moves.
-    let middle = agreement(&morph.frame(0.5), sphere, &grid).min(agreement(&morph.frame(0.5), torus, &grid));
+    let middle =
+        agreement(&morph.frame(0.5), sphere, &grid).min(agreement(&morph.frame(0.5), torus, &grid));
     assert!(middle < 0.999, "{method:?}: the middle frame is one of the ends ({middle})");
 }
 
@@ -83,20 +85,44 @@ fn the_variational_morph_interpolates_both_ends_constraints() {
     let (sphere, torus) = sphere_and_torus();
     let options = MorphOptions { method: Method::Variational, ..MorphOptions::default() };
     let morph = Morph::new(sphere, torus, &options).unwrap();
-    let implicit = morph.implicit().unwrap();
+    let (implicit, duration) = morph.space_time().unwrap();
     assert_eq!(implicit.dim(), 4);
     assert_eq!(implicit.len(), sphere.implicit().unwrap().len() + torus.implicit().unwrap().len());
-    for (model, t) in [(sphere, 0.0), (torus, 1.0)] {
-        let frame = morph.frame(t);
+    let side = morph.bounds().size().max_element();
+    assert!((duration - MorphOptions::default().time_scale * side).abs() < 1e-12 * side);
+    let slice = |w: f64| Slice { implicit, w };
+    for (model, w) in [(sphere, 0.0), (torus, duration)] {
         for c in model.implicit().unwrap().constraints() {
             let p = DVec3::from_slice(c.position());
-            let v = frame.value(p);
+            let v = slice(w).value(p);
             if c.value() == 0.0 {
-                assert!(v.abs() < 1e-6, "boundary constraint at t = {t}: {v}");
+                assert!(v.abs() < 1e-6, "boundary constraint at w = {w}: {v}");
             } else {
-                assert_eq!(v > 0.0, c.value() > 0.0, "constraint {c:?} at t = {t}: {v}");
+                assert_eq!(v > 0.0, c.value() > 0.0, "constraint {c:?} at w = {w}: {v}");
             }
         }
+    }
+    // Between the constraints the bare slices are close to the ends, so the end correction is
+    // small: they agree with A and B on most of the grid.
+    let grid = Grid::around(&morph.bounds(), Resolution::LongestAxis(56)).unwrap();
+    let first = agreement(&slice(0.0), sphere, &grid);
+    let last = agreement(&slice(duration), torus, &grid);
+    eprintln!("bare slices: the first agrees with A on {first}, the last with B on {last}");
+    assert!(first > 0.99 && last > 0.99, "bare slices agree on {first} and {last}");
+}
+
+/// The bare slice of the 4D function at time `w`, without the end correction.
+struct Slice<'a> {
+    implicit: &'a Implicit,
+    w: f64,
+}
+
+impl Field for Slice<'_> {
+    fn value(&self, p: DVec3) -> f64 {
+        self.implicit.value_at(&[p.x, p.y, p.z, self.w])
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        DVec3::from_slice(&self.implicit.gradient_at(&[p.x, p.y, p.z, self.w])[..3])
     }
 }
 
@@ -118,7 +144,9 @@ fn alignment_moves_and_scales_b_onto_a() {
         assert_eq!(morph.bounds().max, torus.bounds().max.max(moved.max), "{method:?}");
         // At t = 1 the frame is the ball moved: the sign at a moved point is the ball's.
         let frame = morph.frame(1.0);
-        for p in [DVec3::new(10.0, 0.0, 0.0), DVec3::new(10.3, 0.1, 0.0), DVec3::new(10.0, 0.0, 0.45)] {
+        for p in
+            [DVec3::new(10.0, 0.0, 0.0), DVec3::new(10.3, 0.1, 0.0), DVec3::new(10.0, 0.0, 0.45)]
+        {
             let q = map.apply(p);
             assert_eq!(frame.value(q) > 0.0, small.value(p) > 0.0, "{method:?} at {p:?}");
         }
@@ -161,7 +189,11 @@ fn bad_morphs_are_clear_errors() {
         ],
     )
     .unwrap();
-    let disc = Model::from_implicit(disc, Aabb { min: DVec3::new(-1.0, -1.0, 0.0), max: DVec3::new(1.0, 1.0, 0.0) }, None);
+    let disc = Model::from_implicit(
+        disc,
+        Aabb { min: DVec3::new(-1.0, -1.0, 0.0), max: DVec3::new(1.0, 1.0, 0.0) },
+        None,
+    );
     let e = Morph::new(sphere, &disc, &MorphOptions::default()).unwrap_err().to_string();
     assert!(e.contains("2D"), "{e}");
     let union = Composite::new(
@@ -175,6 +207,10 @@ fn bad_morphs_are_clear_errors() {
     let variational = MorphOptions { method: Method::Variational, ..MorphOptions::default() };
     let e = Morph::new(sphere, &union, &variational).unwrap_err().to_string();
     assert!(e.contains("variational") && e.contains("target"), "{e}");
+    let e = Morph::new(sphere, torus, &MorphOptions { time_scale: 0.0, ..variational })
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("time scale"), "{e}");
     // The blend reads any field, composites too.
     assert!(Morph::new(sphere, &union, &MorphOptions::default()).is_ok());
 }
@@ -187,13 +223,26 @@ fn implicitize() -> Command {
 fn the_command_line_writes_frames_and_a_strip() {
     let (sphere, torus) = sphere_and_torus();
     let dir = tempfile::tempdir().unwrap();
-    let (a, b, out) = (dir.path().join("a.json"), dir.path().join("b.json"), dir.path().join("frames"));
+    let (a, b, out) =
+        (dir.path().join("a.json"), dir.path().join("b.json"), dir.path().join("frames"));
     sphere.save(&a).unwrap();
     torus.save(&b).unwrap();
     let status = implicitize()
         .arg("morph")
         .args([&a, &b])
-        .args(["--steps", "3", "--method", "variational", "--align", "--resolution", "40", "--strip-width", "64", "-q", "-o"])
+        .args([
+            "--steps",
+            "3",
+            "--method",
+            "variational",
+            "--align",
+            "--resolution",
+            "40",
+            "--strip-width",
+            "64",
+            "-q",
+            "-o",
+        ])
         .arg(&out)
         .output()
         .unwrap();
@@ -210,7 +259,14 @@ fn the_command_line_writes_frames_and_a_strip() {
     assert_eq!(u32::from_be_bytes(strip[20..24].try_into().unwrap()), 48);
 
     let fails = |args: &[&str], want: &[&str]| {
-        let o = implicitize().arg("morph").args([&a, &b]).args(args).arg("-o").arg(&out).output().unwrap();
+        let o = implicitize()
+            .arg("morph")
+            .args([&a, &b])
+            .args(args)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
         assert!(!o.status.success(), "{args:?} should fail");
         let e = String::from_utf8_lossy(&o.stderr);
         for w in want {

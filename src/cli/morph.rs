@@ -40,6 +40,10 @@ pub struct MorphArgs {
     /// Move and uniformly scale B onto A's bounding box first.
     #[arg(long)]
     pub align: bool,
+    /// The variational method's time between the two shapes, as a fraction of the largest side
+    /// of their bounds: smaller keeps more detail in the in-between shapes.
+    #[arg(long, default_value_t = 0.25)]
+    pub time_scale: f64,
     /// Voxels along the longest axis of the polygonization grid (over both shapes' bounds).
     #[arg(long, default_value_t = 100)]
     pub resolution: usize,
@@ -61,7 +65,12 @@ pub fn run(args: &MorphArgs, progress: Progress) -> anyhow::Result<()> {
         MethodArg::Variational => Method::Variational,
     };
     progress.stage("preparing the morph");
-    let options = MorphOptions { method, align: args.align, ..MorphOptions::default() };
+    let options = MorphOptions {
+        method,
+        align: args.align,
+        time_scale: args.time_scale,
+        ..MorphOptions::default()
+    };
     let morph = Morph::new(&a, &b, &options)
         .with_context(|| format!("morphing {} into {}", args.a.display(), args.b.display()))?;
     let bounds = morph.bounds();
