@@ -326,7 +326,8 @@ fn load_error_after(
 
 #[test]
 fn damaged_composite_files_are_named_errors() {
-    let cases: [(&str, Box<dyn FnOnce(&mut serde_json::Value)>); 5] = [
+    type Edit = Box<dyn FnOnce(&mut serde_json::Value)>;
+    let cases: [(&str, Edit); 5] = [
         ("xor", Box::new(|j| j["shape"]["op"] = "xor".into())),
         ("scale", Box::new(|j| j["shape"]["children"][1]["scale"] = (-2.0).into())),
         (
@@ -358,7 +359,7 @@ fn run(args: &[&std::ffi::OsStr]) -> std::process::Output {
     implicitize().args(args).output().unwrap()
 }
 
-fn os<'a>(s: &'a (impl AsRef<std::ffi::OsStr> + ?Sized)) -> &'a std::ffi::OsStr {
+fn os(s: &(impl AsRef<std::ffi::OsStr> + ?Sized)) -> &std::ffi::OsStr {
     s.as_ref()
 }
 
