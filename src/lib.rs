@@ -19,12 +19,15 @@
 //! | a 2D goal from a PNG image; figure 2 of a 2D fit | [`goal2d`], [`figure2`] | figure 2 |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
+//! | combine models: union, intersection, difference | [`csg`] | 1 |
+//! | morph one model into another | [`morph`] | 1, 7 |
 //!
 //! ## Sign convention
 //! Inside is positive and outside negative, as in the paper, for every value this crate
 //! returns: implicit function values and signed distance volumes alike.
 #![warn(missing_docs)]
 
+pub mod csg;
 pub mod distance;
 pub mod error;
 pub mod field;
@@ -36,6 +39,7 @@ pub mod grid;
 pub mod mesh;
 pub mod metrics;
 pub mod model;
+pub mod morph;
 pub mod npy;
 pub mod polygonize;
 pub mod rbf;

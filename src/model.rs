@@ -26,12 +26,32 @@
 //! }
 //! ```
 //!
+//! A composite of models (constructive solid geometry, [`crate::csg`]) has a `shape` of
+//! another type, whose children are shapes themselves, so trees nest:
+//!
+//! ```text
+//!   "shape": {
+//!     "type": "csg",
+//!     "op": "union" | "intersection" | "difference",
+//!     "blend": k,                             // fillet radius in mesh units, 0 for sharp
+//!     "children": [
+//!       { "scale": s, "bounds": { "min": [..], "max": [..] }, "shape": { "type": "rbf", ... } },
+//!       { "scale": s, "bounds": { ... }, "shape": { "type": "csg", ... } },
+//!       ...
+//!     ]
+//!   }
+//! ```
+//!
+//! Each child's values are divided by its `scale` (its distance scale, see [`crate::csg`])
+//! before the operation; the top-level `bounds` hold the composite's inside and `grid` is null.
+//! A child keeps only its shape and bounds: its fit grid and report stay in its own file.
+//!
 //! The function is `f(x) = sum_j d_j phi(|x' - c'_j|) + p0 + sum_a p_a x'_a` with
 //! `x' = (x - translate) / scale` and `c'_j` the centres mapped the same way (see
 //! [`crate::rbf`]); it is positive inside and negative outside.
 //!
-//! `shape` is tagged by `type` so that other kinds of shape (a CSG tree of models, say) can be
-//! added as further variants in the same versioned format. Numbers are written in the shortest
+//! `shape` is tagged by `type` so that other kinds of shape can be added as further variants in
+//! the same versioned format. Numbers are written in the shortest
 //! form that reads back to the same f64 (and read with correct rounding), so saving and loading
 //! reproduces every weight bit for bit.
 
@@ -39,6 +59,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::csg::{Child, Composite, Operation};
 use crate::error::{Error, Location, Result};
 use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
@@ -60,12 +81,23 @@ pub const SIGN: &str = "inside positive, outside negative";
 pub enum Shape {
     /// A variational implicit function.
     Rbf(Implicit),
+    /// A CSG tree of models (see [`crate::csg`]).
+    Csg(Composite),
 }
 
 impl Shape {
     fn field(&self) -> &dyn Field {
         match self {
             Shape::Rbf(implicit) => implicit,
+            Shape::Csg(composite) => composite,
+        }
+    }
+
+    /// The number of coordinates the shape reads: 2, 3 or 4 (space-time).
+    pub fn dim(&self) -> usize {
+        match self {
+            Shape::Rbf(implicit) => implicit.dim(),
+            Shape::Csg(composite) => composite.dim(),
         }
     }
 }
@@ -85,6 +117,15 @@ impl Model {
         Model { shape: Shape::Rbf(implicit), bounds, grid, report: None }
     }
 
+    /// A model of `composite`, whose bounds are [`Composite::bounds`]; it has no grid.
+    ///
+    /// # Errors
+    /// An intersection of shapes whose bounds do not overlap.
+    pub fn from_composite(composite: Composite) -> Result<Model> {
+        let bounds = composite.bounds()?;
+        Ok(Model { shape: Shape::Csg(composite), bounds, grid: None, report: None })
+    }
+
     /// The shape.
     pub fn shape(&self) -> &Shape {
         &self.shape
@@ -94,7 +135,13 @@ impl Model {
     pub fn implicit(&self) -> Option<&Implicit> {
         match &self.shape {
             Shape::Rbf(implicit) => Some(implicit),
+            Shape::Csg(_) => None,
         }
+    }
+
+    /// The number of coordinates the model reads: 2, 3 or 4 (space-time).
+    pub fn dim(&self) -> usize {
+        self.shape.dim()
     }
 
     /// The bounds of the shape in the mesh's units, for polygonizing and rendering.
@@ -123,11 +170,9 @@ impl Model {
             format: FORMAT.into(),
             version: VERSION,
             sign: SIGN.into(),
-            bounds: BoundsFile { min: self.bounds.min.to_array(), max: self.bounds.max.to_array() },
+            bounds: BoundsFile::of(&self.bounds),
             grid: self.grid,
-            shape: match &self.shape {
-                Shape::Rbf(implicit) => ShapeFile::Rbf(RbfFile::of(implicit)),
-            },
+            shape: ShapeFile::of(&self.shape),
             report: self.report.clone(),
         };
         let json = serde_json::to_string_pretty(&file)
@@ -170,14 +215,9 @@ impl Model {
             ));
         }
         let context = path.display().to_string();
-        let shape = match file.shape {
-            ShapeFile::Rbf(rbf) => Shape::Rbf(rbf.into_implicit(&context)?),
-        };
-        let [min, max] = [file.bounds.min, file.bounds.max].map(DVec3::from_array);
-        if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
-            return Err(Error::invalid(context, "the bounds are not finite with min <= max"));
-        }
-        Ok(Model { shape, bounds: Aabb { min, max }, grid: file.grid, report: file.report })
+        let shape = file.shape.into_shape(&context)?;
+        let bounds = file.bounds.into_aabb(&context)?;
+        Ok(Model { shape, bounds, grid: file.grid, report: file.report })
     }
 }
 
@@ -224,10 +264,92 @@ struct BoundsFile {
     max: [f64; 3],
 }
 
+impl BoundsFile {
+    fn of(bounds: &Aabb) -> BoundsFile {
+        BoundsFile { min: bounds.min.to_array(), max: bounds.max.to_array() }
+    }
+
+    fn into_aabb(self, context: &str) -> Result<Aabb> {
+        let [min, max] = [self.min, self.max].map(DVec3::from_array);
+        if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
+            return Err(Error::invalid(context, "the bounds are not finite with min <= max"));
+        }
+        Ok(Aabb { min, max })
+    }
+}
+
 #[derive(Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "lowercase")]
 enum ShapeFile {
     Rbf(RbfFile),
+    Csg(CsgFile),
+}
+
+impl ShapeFile {
+    fn of(shape: &Shape) -> ShapeFile {
+        match shape {
+            Shape::Rbf(implicit) => ShapeFile::Rbf(RbfFile::of(implicit)),
+            Shape::Csg(composite) => ShapeFile::Csg(CsgFile::of(composite)),
+        }
+    }
+
+    /// The shape; `context` names where it is (file and place in the tree) for errors.
+    fn into_shape(self, context: &str) -> Result<Shape> {
+        Ok(match self {
+            ShapeFile::Rbf(rbf) => Shape::Rbf(rbf.into_implicit(context)?),
+            ShapeFile::Csg(csg) => Shape::Csg(csg.into_composite(context)?),
+        })
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CsgFile {
+    op: Operation,
+    blend: f64,
+    children: Vec<ChildFile>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ChildFile {
+    scale: f64,
+    bounds: BoundsFile,
+    shape: ShapeFile,
+}
+
+impl CsgFile {
+    fn of(composite: &Composite) -> CsgFile {
+        CsgFile {
+            op: composite.operation(),
+            blend: composite.blend(),
+            children: composite
+                .children()
+                .iter()
+                .map(|c| ChildFile {
+                    scale: c.scale(),
+                    bounds: BoundsFile::of(&c.model().bounds()),
+                    shape: ShapeFile::of(c.model().shape()),
+                })
+                .collect(),
+        }
+    }
+
+    fn into_composite(self, context: &str) -> Result<Composite> {
+        let children = self
+            .children
+            .into_iter()
+            .enumerate()
+            .map(|(i, child)| {
+                let here = format!("{context}: csg child {}", i + 1);
+                let shape = child.shape.into_shape(&here)?;
+                let bounds = child.bounds.into_aabb(&here)?;
+                let model = Model { shape, bounds, grid: None, report: None };
+                Child::with_scale(&here, model, child.scale)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Composite::new(context, self.op, self.blend, children)
+    }
 }
 
 #[derive(Serialize, Deserialize)]

@@ -114,7 +114,7 @@ fn wrong_files_and_versions_are_named_errors() {
         (Box::new(|j| j["format"] = "something".into()), "not an implicitize model"),
         (Box::new(|j| j["sign"] = "inside negative".into()), "sign convention"),
         (Box::new(|j| j["shape"]["kernel"] = "gauss".into()), "gauss"),
-        (Box::new(|j| j["shape"]["type"] = "csg".into()), "csg"),
+        (Box::new(|j| j["shape"]["type"] = "sphere".into()), "sphere"),
         (Box::new(|j| j["shape"]["weights"][3] = serde_json::Value::Null), "not a valid model"),
         (
             Box::new(|j| j["shape"]["weights"].as_array_mut().unwrap().pop().map(drop).unwrap()),

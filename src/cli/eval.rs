@@ -35,7 +35,7 @@ fn read_points(path: &Path) -> anyhow::Result<(Vec<f64>, usize)> {
 pub fn run(args: &EvalArgs, progress: Progress) -> anyhow::Result<()> {
     let model = Model::load(&args.model)?;
     let (points, columns) = read_points(&args.points)?;
-    let dim = model.implicit().map_or(3, |i| i.dim());
+    let dim = model.dim();
     if columns != dim {
         anyhow::bail!(
             "{}: {columns} coordinates per point, but {} is a {dim}D model",
@@ -47,7 +47,10 @@ pub fn run(args: &EvalArgs, progress: Progress) -> anyhow::Result<()> {
     let values = match model.implicit() {
         Some(implicit) => implicit.values_flat(&points),
         None => model.values(
-            &points.chunks_exact(3).map(|p| DVec3::new(p[0], p[1], p[2])).collect::<Vec<_>>(),
+            &points
+                .chunks_exact(dim)
+                .map(|p| DVec3::new(p[0], p[1], p.get(2).copied().unwrap_or(0.0)))
+                .collect::<Vec<_>>(),
         ),
     };
     let seconds = start.elapsed().as_secs_f64();

@@ -8,9 +8,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod common;
+mod csg;
 mod eval;
 mod fit;
 mod fit2d;
+mod morph;
 mod polygonize;
 mod render;
 mod solve;
@@ -47,6 +49,10 @@ enum Command {
     Eval(eval::EvalArgs),
     /// Draw a model or a mesh to a PNG, or the two side by side (paper figures 1, 3-5).
     Render(render::RenderCommand),
+    /// Combine two models: union, intersection or difference, sharp or blended (paper 1).
+    Csg(csg::CsgArgs),
+    /// Morph one model into another: a mesh per frame and a picture strip (paper 1, 7).
+    Morph(morph::MorphArgs),
 }
 
 /// Parses the command line and runs it.
@@ -63,6 +69,8 @@ pub fn run() -> ExitCode {
         Command::Solve(args) => solve::run(args, progress),
         Command::Eval(args) => eval::run(args, progress),
         Command::Render(args) => render::run(args, progress),
+        Command::Csg(args) => csg::run(args, progress),
+        Command::Morph(args) => morph::run(args, progress),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
