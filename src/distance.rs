@@ -54,11 +54,18 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
         let planes: Vec<Vec<f32>> = (first..(first + batch).min(ny))
             .into_par_iter()
             .map(|j| {
-                let at = |i: usize, k: usize| (i * ny + j) * nz + k;
-                let mut plane = vec![0.0f32; nx * nz];
+                // The (i, k) plane at this j, gathered row by row (rows are contiguous), so
+                // the lines along i read a plane that stays in cache.
+                let mut plane = Vec::with_capacity(nx * nz);
+                let mut plane_states = Vec::with_capacity(nx * nz);
+                for i in 0..nx {
+                    let row = (i * ny + j) * nz;
+                    plane.extend_from_slice(&d2[row..row + nz]);
+                    plane_states.extend_from_slice(&states[row..row + nz]);
+                }
                 let mut line = Line::new(nx);
                 for k in 0..nz {
-                    line.load(|i| (states[at(i, k)], d2[at(i, k)]));
+                    line.load(|i| (plane_states[i * nz + k], plane[i * nz + k]));
                     line.solve(|i, d| plane[i * nz + k] = d);
                 }
                 plane

@@ -268,7 +268,7 @@ fn current_regularity(
     sd_current: &Volume<f32>,
     options: &FitOptions,
 ) {
-    let sides = [&*goal_side, &*current_side];
+    let sides = [goal_side, &*current_side];
     let max_fine = sides
         .iter()
         .flat_map(|side| (0..side.voxels.len()).map(|i| side.fine_error(i)))

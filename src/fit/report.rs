@@ -41,13 +41,15 @@ impl ConstraintCounts {
 /// Seconds spent in each stage, as in the paper's Table 2.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct Timings {
-    /// Voxelization and the goal's and current surfaces' signed distances.
+    /// The current surfaces' signed distances; `implicitize fit`, which starts from the mesh,
+    /// adds the voxelization and the goal's signed distance and radii of regularity.
     pub signed_distance: f64,
     /// Evaluating the implicit function over the volume (5.2).
     pub implicit_evaluation: f64,
     /// Everything else: solving, radii of regularity, candidates and pruning.
     pub misc: f64,
-    /// Wall-clock time of the whole fit.
+    /// Wall-clock time of the whole fit (with `implicitize fit`, from the mesh read to the best
+    /// model found).
     pub total: f64,
 }
 

@@ -311,59 +311,103 @@ fn steepest_slope(middle: &Level, ranges: &[std::ops::Range<usize>; 3], samples:
 }
 
 /// The voxels of the cells `fine` (middle level) not yet known, in increasing order.
+///
+/// Neighbouring cells share their faces, so the cells' voxels are marked in a mask, one
+/// x-slab per task, and the mask is read back in order (cheaper than sorting and deduplicating
+/// the voxels of every cell).
 fn fine_voxels(grid: &Grid, middle: &Level, fine: &[usize], known: &[bool]) -> Vec<usize> {
-    let mut voxels: Vec<usize> = fine
-        .par_iter()
-        .flat_map_iter(|&s| {
-            let spans = middle.spans(middle.cell_of_index(s));
-            (spans[0].0..=spans[0].1).flat_map(move |i| {
-                (spans[1].0..=spans[1].1)
-                    .flat_map(move |j| (spans[2].0..=spans[2].1).map(move |k| [i, j, k]))
-            })
+    let [nx, ny, nz] = grid.dims;
+    let slab = ny * nz;
+    // The fine cells by the x-cell they lie in, so that each slab task looks at few cells.
+    let mut by_x: Vec<Vec<[usize; 3]>> = vec![Vec::new(); middle.axes[0].cells()];
+    for &s in fine {
+        let cell = middle.cell_of_index(s);
+        by_x[cell[0]].push(cell);
+    }
+    let mut wanted = vec![false; grid.len()];
+    wanted.par_chunks_mut(slab).enumerate().for_each(|(i, mask)| {
+        let axis = &middle.axes[0];
+        // Voxel layer i lies in its own x-cell, and on the upper face of the one below.
+        let own = axis.cell[i] as usize;
+        let below = (own > 0 && axis.span(own - 1).1 == i).then(|| own - 1);
+        let cells = by_x[own].iter().chain(below.into_iter().flat_map(|c| by_x[c].iter()));
+        for &cell in cells {
+            let spans = middle.spans(cell);
+            if !(spans[0].0..=spans[0].1).contains(&i) {
+                continue;
+            }
+            for j in spans[1].0..=spans[1].1 {
+                mask[j * nz + spans[2].0..=j * nz + spans[2].1].fill(true);
+            }
+        }
+    });
+    debug_assert_eq!(wanted.len(), nx * slab);
+    wanted
+        .par_chunks(slab)
+        .zip(known.par_chunks(slab))
+        .enumerate()
+        .flat_map_iter(|(i, (mask, known))| {
+            (0..slab).filter(move |&v| mask[v] && !known[v]).map(move |v| i * slab + v)
         })
-        .map(|v| grid.index(v))
-        .filter(|&v| !known[v])
-        .collect();
-    voxels.par_sort_unstable();
-    voxels.dedup();
-    voxels
+        .collect()
 }
 
 /// Fills every voxel not sampled by trilinear interpolation of the corners of the finest cell
 /// sampled around it: the middle level's in refined coarse cells, the coarse level's elsewhere.
+///
+/// Along each row (fixed `i`, `j`) the cell changes only every few voxels, so the row keeps the
+/// current cell's two ends, interpolated across `i` and `j`, and each voxel costs one lerp.
 fn fill(samples: &mut Samples, coarse: &Level, middle: &Level, refined: &[bool]) {
     let grid = samples.grid;
-    let slab = grid.dims[1] * grid.dims[2];
+    let [_, ny, nz] = grid.dims;
+    let slab = ny * nz;
     let sampled = samples.values.clone();
     let known = &samples.known;
-    samples.values.par_chunks_mut(slab).enumerate().for_each(|(i, values)| {
-        for (offset, value) in values.iter_mut().enumerate() {
-            if known[i * slab + offset] {
-                continue;
+    samples.values.par_chunks_mut(slab).enumerate().for_each(|(i, layer)| {
+        for j in 0..ny {
+            let row = &mut layer[j * nz..(j + 1) * nz];
+            let known = &known[(i * ny + j) * nz..][..nz];
+            let coarse_row = [coarse.axes[0].cell[i] as usize, coarse.axes[1].cell[j] as usize];
+            // (whether the middle level, the cell along k) of the ends held, and the ends.
+            let mut held: Option<(bool, u32)> = None;
+            let mut ends = [0.0f32; 2];
+            for k in 0..nz {
+                if known[k] {
+                    continue;
+                }
+                let coarse_cell = [coarse_row[0], coarse_row[1], coarse.axes[2].cell[k] as usize];
+                let fine = refined[coarse.cell_index(coarse_cell)];
+                let level = if fine { middle } else { coarse };
+                let cell = (fine, level.axes[2].cell[k]);
+                if held != Some(cell) {
+                    ends = row_ends(&grid, &sampled, level, [i, j], cell.1 as usize);
+                    held = Some(cell);
+                }
+                let ((lo, hi), t) = level.axes[2].locate(k);
+                let t = if hi > lo { t as f32 } else { 0.0 };
+                row[k] = ends[0] + (ends[1] - ends[0]) * t;
             }
-            let v = [i, offset / grid.dims[2], offset % grid.dims[2]];
-            let cell = [0, 1, 2].map(|a| coarse.axes[a].cell[v[a]] as usize);
-            let level = if refined[coarse.cell_index(cell)] { middle } else { coarse };
-            *value = trilinear(&grid, &sampled, level, v);
         }
     });
 }
 
-/// The trilinear interpolation at voxel `v` of the corners of its cell of `level`.
-fn trilinear(grid: &Grid, sampled: &[f32], level: &Level, v: [usize; 3]) -> f32 {
-    let located = [0, 1, 2].map(|a| level.axes[a].locate(v[a]));
-    let mut value = 0.0f64;
-    for c in 0..8 {
-        let mut corner = [0usize; 3];
-        let mut weight = 1.0;
-        for (a, &((lo, hi), t)) in located.iter().enumerate() {
-            let upper = c >> a & 1 == 1;
-            corner[a] = if upper { hi } else { lo };
-            weight *= if upper { t } else { 1.0 - t };
-        }
-        if weight != 0.0 {
-            value += weight * f64::from(sampled[grid.index(corner)]);
-        }
-    }
-    value as f32
+/// The values at the two ends along k of cell `cell_k` of `level`, at row `(i, j)`: each the
+/// bilinear interpolation across i and j of that end's four corners.
+fn row_ends(
+    grid: &Grid,
+    sampled: &[f32],
+    level: &Level,
+    [i, j]: [usize; 2],
+    cell_k: usize,
+) -> [f32; 2] {
+    let ((x0, x1), tx) = level.axes[0].locate(i);
+    let ((y0, y1), ty) = level.axes[1].locate(j);
+    let (z0, z1) = level.axes[2].span(cell_k);
+    let (tx, ty) = (tx as f32, ty as f32);
+    [z0, z1].map(|k| {
+        let at = |x: usize, y: usize| sampled[grid.index([x, y, k])];
+        let lower = at(x0, y0) + (at(x1, y0) - at(x0, y0)) * tx;
+        let upper = at(x0, y1) + (at(x1, y1) - at(x0, y1)) * tx;
+        lower + (upper - lower) * ty
+    })
 }
