@@ -311,6 +311,50 @@ fn values_dim<const D: usize, K: Phi>(
     out
 }
 
+/// Fills the kernel block of the interpolation matrix, `phi(|c_i - c_j|)` for the `n`
+/// normalized `centres` (one axis after another), into the first `n` entries of each of the
+/// first `n` columns of `columns` (column-major, `stride` entries a column), with the same
+/// vectorized loops as evaluation: column `j` is the function of one centre `c_j` and weight 1
+/// at every centre.
+pub(super) fn kernel_columns(
+    dim: usize,
+    kernel: Kernel,
+    centres: &[f64],
+    columns: &mut [f64],
+    stride: usize,
+) {
+    match (dim, kernel) {
+        (2, Kernel::ThinPlate) => kernel_columns_dim::<2, ThinPlate>(centres, columns, stride),
+        (2, Kernel::Cubic) => kernel_columns_dim::<2, Cubic>(centres, columns, stride),
+        (2, Kernel::Linear) => kernel_columns_dim::<2, Linear>(centres, columns, stride),
+        (3, Kernel::ThinPlate) => kernel_columns_dim::<3, ThinPlate>(centres, columns, stride),
+        (3, Kernel::Cubic) => kernel_columns_dim::<3, Cubic>(centres, columns, stride),
+        (3, Kernel::Linear) => kernel_columns_dim::<3, Linear>(centres, columns, stride),
+        (_, Kernel::ThinPlate) => kernel_columns_dim::<4, ThinPlate>(centres, columns, stride),
+        (_, Kernel::Cubic) => kernel_columns_dim::<4, Cubic>(centres, columns, stride),
+        (_, Kernel::Linear) => kernel_columns_dim::<4, Linear>(centres, columns, stride),
+    }
+}
+
+fn kernel_columns_dim<const D: usize, K: Phi>(centres: &[f64], columns: &mut [f64], stride: usize) {
+    let isa = Isa::detect();
+    let n = centres.len() / D;
+    let padded = n.div_ceil(LANES) * LANES;
+    let points: [Vec<f64>; D] = std::array::from_fn(|a| {
+        let mut axis = centres[a * n..(a + 1) * n].to_vec();
+        axis.resize(padded, 0.0);
+        axis
+    });
+    let weight = [1.0 / K::WEIGHT_SCALE];
+    columns.par_chunks_mut(stride).take(n).enumerate().for_each(|(j, col)| {
+        let centre: [f64; D] = std::array::from_fn(|a| centres[a * n + j]);
+        let one = Centres { centres: &centre, weights: &weight };
+        let mut out = vec![0.0; padded];
+        dispatch::<D, K>(isa, &one, &points, &mut out);
+        col[..n].copy_from_slice(&out[..n]);
+    });
+}
+
 /// The value at one point (missing coordinates zero), by the same code as batches.
 pub(super) fn value_at(implicit: &Implicit, x: &[f64]) -> f64 {
     values(implicit, 1, |_, out| {

@@ -19,7 +19,8 @@
 //! runtime parameter (2, 3 or 4) and the hot loops are specialized for each by const generics.
 //!
 //! ## Guarantees
-//! * The solve is exact (a dense LU factorization with partial pivoting in f64, refined),
+//! * The solve is exact (a dense factorization in f64, by the null-space method and Cholesky,
+//!   refined),
 //!   and checked: [`Implicit::solve`] reports the largest interpolation residual relative to the
 //!   largest |value| and refuses a system whose residual shows it is numerically singular.
 //!   Coincident or nearly coincident constraints, too few affinely independent positions for

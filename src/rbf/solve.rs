@@ -8,8 +8,11 @@
 //! [ Q^T  0 ] [ p ] = [ 0 ]        Q_i    = (1, c_i)
 //! ```
 //!
-//! It is symmetric but indefinite, and solved exactly by a dense LU factorization with partial
-//! pivoting (faer, f64, in parallel), followed by iterative refinement while it helps.
+//! It is symmetric but indefinite. It is solved exactly by the null-space method: Householder
+//! reflections reduce it to the kernel block on the weights that annihilate the polynomials,
+//! which is definite for these kernels and factored by Cholesky (faer, f64, in parallel), a
+//! third of the work of an LU of the whole system; iterative refinement follows while it helps.
+//! The kernel block is assembled with the vectorized loops of evaluation.
 //!
 //! Constraints added during the fit are solved from scratch, not by a block update of the
 //! factorization: benches/rbf.rs measures the solve for 1,500 constraints (`solve/1500`) at a
@@ -19,8 +22,8 @@
 //! Positions are first normalized (centroid and largest extent); the [module doc](crate::rbf)
 //! says why that leaves the interpolant unchanged.
 
-use faer::Mat;
 use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
 use rayon::prelude::*;
 
 use super::{Constraint, DIMENSIONS, Implicit, Kernel, Normalization};
@@ -36,7 +39,7 @@ pub const MAX_RESIDUAL: f64 = 1e-6;
 /// before they count as lying in a lower-dimensional flat (on a line in 2D, a plane in 3D).
 const MIN_FLATNESS: f64 = 1e-9;
 
-/// The most steps of iterative refinement after the LU solve.
+/// The most steps of iterative refinement after the direct solve.
 const REFINEMENT_STEPS: usize = 4;
 
 const CONTEXT: &str = "constraints";
@@ -46,8 +49,8 @@ impl Implicit {
     /// dimensions (2, 3 or 4) with `kernel`: positive inside, negative outside.
     ///
     /// The system is solved in normalized coordinates (see the [module doc](crate::rbf) for
-    /// why that leaves the function unchanged) by a dense LU factorization in f64, in parallel,
-    /// with iterative refinement. [`Implicit::residual`] then holds the largest `|f(c_i) - h_i|` relative to
+    /// why that leaves the function unchanged) by a dense factorization in f64 (the null-space
+    /// method and Cholesky, see the module doc), in parallel, with iterative refinement. [`Implicit::residual`] then holds the largest `|f(c_i) - h_i|` relative to
     /// the largest `|h_i|` (or to the largest extent when every value is zero).
     ///
     /// # Errors
@@ -62,7 +65,8 @@ impl Implicit {
         check_separation(dim, &centres, constraints, &normalization)?;
         check_affine_span(dim, &centres)?;
         let values: Vec<f64> = constraints.iter().map(|c| c.value).collect();
-        let solution = solve_system(dim, kernel, &centres, &values);
+        let solution =
+            solve_system(dim, kernel, &centres, &values).ok_or_else(|| singular(f64::NAN))?;
         let n = constraints.len();
         let mut implicit = Implicit {
             dim,
@@ -76,14 +80,7 @@ impl Implicit {
         };
         implicit.residual = interpolation_residual(&implicit);
         if implicit.residual.is_nan() || implicit.residual > MAX_RESIDUAL {
-            return Err(Error::invalid(
-                CONTEXT,
-                format!(
-                    "the interpolation system is numerically singular (relative residual {:.3e}); \
-                     remove constraints that nearly coincide or lie in a degenerate arrangement",
-                    implicit.residual
-                ),
-            ));
+            return Err(singular(implicit.residual));
         }
         Ok(implicit)
     }
@@ -117,6 +114,21 @@ pub(super) fn check_constraints(
         }
     }
     Ok(())
+}
+
+fn singular(residual: f64) -> Error {
+    let residual = if residual.is_nan() {
+        String::new()
+    } else {
+        format!(" (relative residual {residual:.3e})")
+    };
+    Error::invalid(
+        CONTEXT,
+        format!(
+            "the interpolation system is numerically singular{residual}; remove constraints \
+             that nearly coincide or lie in a degenerate arrangement"
+        ),
+    )
 }
 
 fn too_few(dim: usize, n: usize) -> Error {
@@ -229,58 +241,210 @@ fn check_affine_span(dim: usize, centres: &[f64]) -> Result<()> {
     Ok(())
 }
 
-/// The system matrix of the module doc, assembled in parallel, column by column.
+/// The system matrix of the module doc: the kernel block by the vectorized evaluation loops
+/// ([`super::evaluate`]), in parallel, then the polynomial blocks.
 pub(super) fn system_matrix(dim: usize, kernel: Kernel, centres: &[f64]) -> Mat<f64> {
     let n = centres.len() / dim;
     let m = n + dim + 1;
-    let mut a = Mat::<f64>::zeros(m, m);
-    a.par_col_iter_mut().enumerate().for_each(|(j, mut col)| {
+    let mut columns = vec![0.0; m * m];
+    super::evaluate::kernel_columns(dim, kernel, centres, &mut columns, m);
+    for (j, col) in columns.chunks_mut(m).enumerate() {
         if j < n {
-            for i in 0..n {
-                let r2: f64 =
-                    (0..dim).map(|ax| (centres[ax * n + i] - centres[ax * n + j]).powi(2)).sum();
-                col[i] = kernel.phi_of_r2(r2);
-            }
             col[n] = 1.0;
-            for ax in 0..dim {
-                col[n + 1 + ax] = centres[ax * n + j];
+            for a in 0..dim {
+                col[n + 1 + a] = centres[a * n + j];
             }
         } else if j == n {
-            for i in 0..n {
-                col[i] = 1.0;
-            }
+            col[..n].fill(1.0);
         } else {
-            for i in 0..n {
-                col[i] = centres[(j - n - 1) * n + i];
-            }
+            col[..n].copy_from_slice(&centres[(j - n - 1) * n..(j - n) * n]);
         }
-    });
-    a
+    }
+    faer::MatRef::from_column_major_slice(&columns, m, m).to_owned()
 }
 
 /// Solves the system for the right-hand side `(values, 0)`: the weights, then the polynomial.
-fn solve_system(dim: usize, kernel: Kernel, centres: &[f64], values: &[f64]) -> Vec<f64> {
+/// `None` where the kernel block is not definite on the polynomials' null space, which for
+/// these kernels only rounding on a numerically singular arrangement can cause.
+fn solve_system(dim: usize, kernel: Kernel, centres: &[f64], values: &[f64]) -> Option<Vec<f64>> {
     let n = values.len();
     let m = n + dim + 1;
     let a = system_matrix(dim, kernel, centres);
-    let b = Mat::from_fn(m, 1, |i, _| if i < n { values[i] } else { 0.0 });
-    let lu = a.partial_piv_lu();
-    let mut x = lu.solve(&b);
-    // Iterative refinement recovers the digits lost to the LU's rounding, as long as each step
-    // shrinks the residual.
-    let norm = |r: &Mat<f64>| (0..m).map(|i| r[(i, 0)].abs()).fold(0.0, f64::max);
-    let mut r = &b - &a * &x;
+    let factored = NullSpace::new(&a, n, dim + 1, kernel)?;
+    let b: Vec<f64> = (0..m).map(|i| if i < n { values[i] } else { 0.0 }).collect();
+    let mut x = factored.solve(&b);
+    // Iterative refinement recovers the digits lost to the factorization's rounding, as long
+    // as each step shrinks the residual.
+    let residual = |x: &[f64]| -> Vec<f64> {
+        let x = Mat::from_fn(m, 1, |i, _| x[i]);
+        let ax = &a * &x;
+        (0..m).map(|i| b[i] - ax[(i, 0)]).collect()
+    };
+    let norm = |r: &[f64]| r.iter().fold(0.0f64, |w, v| w.max(v.abs()));
+    let mut r = residual(&x);
     for _ in 0..REFINEMENT_STEPS {
         let before = norm(&r);
-        let next = &x + lu.solve(&r);
-        let r_next = &b - &a * &next;
+        let correction = factored.solve(&r);
+        let next: Vec<f64> = x.iter().zip(&correction).map(|(x, c)| x + c).collect();
+        let r_next = residual(&next);
         let after = norm(&r_next);
         if after.is_nan() || after >= 0.5 * before {
             break;
         }
         (x, r) = (next, r_next);
     }
-    (0..m).map(|i| x[(i, 0)]).collect()
+    Some(x)
+}
+
+/// The system of the module doc factored by the null-space method: with Householder
+/// reflections `H` that take the polynomial block `Q` to `[R; 0]`, the weights are
+/// `d = H^T [y; w]`, where `R^T y` is the right-hand side of the side conditions and `w` solves
+/// the trailing block of `H Phi H^T`. That block is the kernel restricted to weights that
+/// annihilate every degree-one polynomial, where `r^2 log r` and `r^3` are positive definite
+/// and `r` negative definite (they are conditionally definite of order 2, or 1 for `r`), so a
+/// Cholesky factorization solves it: a third of the work of an LU of the whole system.
+struct NullSpace {
+    /// The polynomial terms (`dim + 1`).
+    terms: usize,
+    /// The reflections `I - beta v v^T`, in the order applied to `Q`.
+    reflections: Vec<(Vec<f64>, f64)>,
+    /// `R`, upper triangular, `terms x terms`.
+    r: Mat<f64>,
+    /// `H Phi H^T`, column-major, `n x n`.
+    transformed: Vec<f64>,
+    /// Cholesky factor of `sign` times its trailing block.
+    cholesky: faer::linalg::solvers::Llt<f64>,
+    /// 1 for positive definite kernels, -1 for `r`.
+    sign: f64,
+}
+
+impl NullSpace {
+    /// Factors the system `a` (from [`system_matrix`]) of `n` constraints and `terms`
+    /// polynomial terms.
+    fn new(a: &Mat<f64>, n: usize, terms: usize, kernel: Kernel) -> Option<NullSpace> {
+        let mut q = Mat::from_fn(n, terms, |i, j| a[(i, n + j)]);
+        let mut reflections = Vec::with_capacity(terms);
+        for k in 0..terms {
+            let (v, beta) = householder(&q, k)?;
+            reflect_columns(&mut q, &v, beta);
+            reflections.push((v, beta));
+        }
+        let r = Mat::from_fn(terms, terms, |i, j| if i <= j { q[(i, j)] } else { 0.0 });
+        let mut transformed: Vec<f64> =
+            (0..n).flat_map(|j| a.col_as_slice(j)[..n].iter().copied()).collect();
+        for (v, beta) in &reflections {
+            reflect_both_sides(&mut transformed, v, *beta);
+        }
+        let sign = if kernel == Kernel::Linear { -1.0 } else { 1.0 };
+        let rest = n - terms;
+        let trailing = &transformed[terms * n + terms..];
+        let mut block =
+            faer::MatRef::from_column_major_slice_with_stride(trailing, rest, rest, n).to_owned();
+        if sign < 0.0 {
+            block *= faer::Scale(-1.0);
+        }
+        let cholesky = block.llt(Side::Lower).ok()?;
+        Some(NullSpace { terms, reflections, r, transformed, cholesky, sign })
+    }
+
+    /// The solution `(d, p)` for the right-hand side `rhs = (h, g)`.
+    fn solve(&self, rhs: &[f64]) -> Vec<f64> {
+        let t = self.terms;
+        let n = rhs.len() - t;
+        let (h, g) = rhs.split_at(n);
+        // R^T y = g, forward.
+        let mut y = vec![0.0; t];
+        for i in 0..t {
+            let s: f64 = (0..i).map(|k| self.r[(k, i)] * y[k]).sum();
+            y[i] = (g[i] - s) / self.r[(i, i)];
+        }
+        let mut c = h.to_vec();
+        for (v, beta) in &self.reflections {
+            reflect(&mut c, v, *beta);
+        }
+        let b = |i: usize, j: usize| self.transformed[j * n + i];
+        let rest = n - t;
+        let mut w = Mat::from_fn(rest, 1, |i, _| {
+            let coupled: f64 = (0..t).map(|k| b(t + i, k) * y[k]).sum();
+            self.sign * (c[t + i] - coupled)
+        });
+        self.cholesky.solve_in_place(w.as_mut());
+        // R p = c_top - B11 y - B12 w, backward.
+        let top: Vec<f64> = (0..t)
+            .map(|i| {
+                let b11: f64 = (0..t).map(|k| b(i, k) * y[k]).sum();
+                let b12: f64 = (0..rest).map(|k| b(i, t + k) * w[(k, 0)]).sum();
+                c[i] - b11 - b12
+            })
+            .collect();
+        let mut p = vec![0.0; t];
+        for i in (0..t).rev() {
+            let s: f64 = (i + 1..t).map(|k| self.r[(i, k)] * p[k]).sum();
+            p[i] = (top[i] - s) / self.r[(i, i)];
+        }
+        // d = H^T [y; w]: the reflections in reverse order.
+        let mut d: Vec<f64> = y.into_iter().chain((0..rest).map(|i| w[(i, 0)])).collect();
+        for (v, beta) in self.reflections.iter().rev() {
+            reflect(&mut d, v, *beta);
+        }
+        d.extend(p);
+        d
+    }
+}
+
+/// The reflection `(v, beta)` that zeroes column `k` of `q` below row `k`; `None` if that part
+/// of the column is zero (the positions do not span the polynomial space).
+fn householder(q: &Mat<f64>, k: usize) -> Option<(Vec<f64>, f64)> {
+    let n = q.nrows();
+    let norm = (k..n).map(|i| q[(i, k)] * q[(i, k)]).sum::<f64>().sqrt();
+    if norm.is_nan() || norm <= 0.0 {
+        return None;
+    }
+    let alpha = if q[(k, k)] > 0.0 { -norm } else { norm };
+    let mut v = vec![0.0; n];
+    for i in k..n {
+        v[i] = q[(i, k)];
+    }
+    v[k] -= alpha;
+    let vv: f64 = v.iter().map(|x| x * x).sum();
+    Some((v, 2.0 / vv))
+}
+
+/// `x <- (I - beta v v^T) x`.
+fn reflect(x: &mut [f64], v: &[f64], beta: f64) {
+    let dot: f64 = x.iter().zip(v).map(|(x, v)| x * v).sum();
+    for (x, v) in x.iter_mut().zip(v) {
+        *x -= beta * dot * v;
+    }
+}
+
+/// Applies the reflection to every column of `q`.
+fn reflect_columns(q: &mut Mat<f64>, v: &[f64], beta: f64) {
+    for j in 0..q.ncols() {
+        let mut col: Vec<f64> = (0..q.nrows()).map(|i| q[(i, j)]).collect();
+        reflect(&mut col, v, beta);
+        for (i, x) in col.into_iter().enumerate() {
+            q[(i, j)] = x;
+        }
+    }
+}
+
+/// `b <- H b H` for the symmetric `n x n` column-major `b` and `H = I - beta v v^T`, as the
+/// rank-two update `b - v z^T - z v^T` with `u = b v` and `z = beta u - (beta^2 v^T u / 2) v`,
+/// in parallel over columns.
+fn reflect_both_sides(b: &mut [f64], v: &[f64], beta: f64) {
+    let n = v.len();
+    let u: Vec<f64> =
+        b.par_chunks(n).map(|col| col.iter().zip(v).map(|(x, v)| x * v).sum::<f64>()).collect();
+    let gamma: f64 = u.iter().zip(v).map(|(u, v)| u * v).sum();
+    let z: Vec<f64> =
+        u.iter().zip(v).map(|(u, v)| beta * u - 0.5 * beta * beta * gamma * v).collect();
+    b.par_chunks_mut(n).enumerate().for_each(|(j, col)| {
+        let (vj, zj) = (v[j], z[j]);
+        for ((x, v), z) in col.iter_mut().zip(v).zip(&z) {
+            *x -= v * zj + z * vj;
+        }
+    });
 }
 
 /// The largest `|f(c_i) - h_i|` relative to the largest `|h_i|`, or to the largest extent when
