@@ -27,6 +27,8 @@ struct Axis {
     /// The cell holding each voxel (a voxel on a cell's upper end belongs to the next cell,
     /// except the last voxel).
     cell: Vec<u32>,
+    /// How far across its cell each voxel lies, from 0 at the cell's start to 1 at its end.
+    fraction: Vec<f32>,
 }
 
 impl Axis {
@@ -36,8 +38,15 @@ impl Axis {
             nodes.push(n - 1);
         }
         let cells = (nodes.len() - 1).max(1);
-        let cell = (0..n).map(|i| (i / step).min(cells - 1) as u32).collect();
-        Axis { nodes, cell }
+        let cell: Vec<u32> = (0..n).map(|i| (i / step).min(cells - 1) as u32).collect();
+        let fraction = (0..n)
+            .map(|i| {
+                let c = cell[i] as usize;
+                let (lo, hi) = (nodes[c], nodes[(c + 1).min(nodes.len() - 1)]);
+                if hi > lo { (i - lo) as f32 / (hi - lo) as f32 } else { 0.0 }
+            })
+            .collect();
+        Axis { nodes, cell, fraction }
     }
 
     /// The number of cells: one between each pair of samples, or one flat cell for one voxel.
@@ -364,10 +373,12 @@ fn fill(samples: &mut Samples, coarse: &Level, middle: &Level, refined: &[bool])
     let sampled = samples.values.clone();
     let known = &samples.known;
     samples.values.par_chunks_mut(slab).enumerate().for_each(|(i, layer)| {
+        let coarse_x = coarse.axes[0].cell[i] as usize;
+        let coarse_k = &coarse.axes[2].cell;
         for j in 0..ny {
             let row = &mut layer[j * nz..(j + 1) * nz];
             let known = &known[(i * ny + j) * nz..][..nz];
-            let coarse_row = [coarse.axes[0].cell[i] as usize, coarse.axes[1].cell[j] as usize];
+            let row_cells = coarse.cell_index([coarse_x, coarse.axes[1].cell[j] as usize, 0]);
             // (whether the middle level, the cell along k) of the ends held, and the ends.
             let mut held: Option<(bool, u32)> = None;
             let mut ends = [0.0f32; 2];
@@ -375,17 +386,14 @@ fn fill(samples: &mut Samples, coarse: &Level, middle: &Level, refined: &[bool])
                 if known[k] {
                     continue;
                 }
-                let coarse_cell = [coarse_row[0], coarse_row[1], coarse.axes[2].cell[k] as usize];
-                let fine = refined[coarse.cell_index(coarse_cell)];
+                let fine = refined[row_cells + coarse_k[k] as usize];
                 let level = if fine { middle } else { coarse };
                 let cell = (fine, level.axes[2].cell[k]);
                 if held != Some(cell) {
                     ends = row_ends(&grid, &sampled, level, [i, j], cell.1 as usize);
                     held = Some(cell);
                 }
-                let ((lo, hi), t) = level.axes[2].locate(k);
-                let t = if hi > lo { t as f32 } else { 0.0 };
-                row[k] = ends[0] + (ends[1] - ends[0]) * t;
+                row[k] = ends[0] + (ends[1] - ends[0]) * level.axes[2].fraction[k];
             }
         }
     });
