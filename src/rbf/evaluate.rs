@@ -314,8 +314,8 @@ fn values_dim<const D: usize, K: Phi>(
 /// Fills the kernel block of the interpolation matrix, `phi(|c_i - c_j|)` for the `n`
 /// normalized `centres` (one axis after another), into the first `n` entries of each of the
 /// first `n` columns of `columns` (column-major, `stride` entries a column), with the same
-/// vectorized loops as evaluation: column `j` is the function of one centre `c_j` and weight 1
-/// at every centre.
+/// vectorized loops as evaluation: column `j` is the function of the one centre `c_j`, weighted
+/// so that its values are `phi` itself, at every centre.
 pub(super) fn kernel_columns(
     dim: usize,
     kernel: Kernel,

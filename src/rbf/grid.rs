@@ -325,7 +325,7 @@ fn steepest_slope(middle: &Level, ranges: &[std::ops::Range<usize>; 3], samples:
 /// x-slab per task, and the mask is read back in order (cheaper than sorting and deduplicating
 /// the voxels of every cell).
 fn fine_voxels(grid: &Grid, middle: &Level, fine: &[usize], known: &[bool]) -> Vec<usize> {
-    let [nx, ny, nz] = grid.dims;
+    let [_, ny, nz] = grid.dims;
     let slab = ny * nz;
     // The fine cells by the x-cell they lie in, so that each slab task looks at few cells.
     let mut by_x: Vec<Vec<[usize; 3]>> = vec![Vec::new(); middle.axes[0].cells()];
@@ -350,7 +350,6 @@ fn fine_voxels(grid: &Grid, middle: &Level, fine: &[usize], known: &[bool]) -> V
             }
         }
     });
-    debug_assert_eq!(wanted.len(), nx * slab);
     wanted
         .par_chunks(slab)
         .zip(known.par_chunks(slab))
