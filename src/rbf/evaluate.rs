@@ -345,7 +345,7 @@ fn kernel_columns_dim<const D: usize, K: Phi>(centres: &[f64], columns: &mut [f6
         axis.resize(padded, 0.0);
         axis
     });
-    let weight = [1.0 / K::WEIGHT_SCALE];
+    let weight = [K::WEIGHT_SCALE];
     columns.par_chunks_mut(stride).take(n).enumerate().for_each(|(j, col)| {
         let centre: [f64; D] = std::array::from_fn(|a| centres[a * n + j]);
         let one = Centres { centres: &centre, weights: &weight };
