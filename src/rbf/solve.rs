@@ -50,8 +50,9 @@ impl Implicit {
     ///
     /// The system is solved in normalized coordinates (see the [module doc](crate::rbf) for
     /// why that leaves the function unchanged) by a dense factorization in f64 (the null-space
-    /// method and Cholesky, see the module doc), in parallel, with iterative refinement. [`Implicit::residual`] then holds the largest `|f(c_i) - h_i|` relative to
-    /// the largest `|h_i|` (or to the largest extent when every value is zero).
+    /// method and Cholesky, see the module doc), in parallel, with iterative refinement.
+    /// [`Implicit::residual`] then holds the largest `|f(c_i) - h_i|` relative to the largest
+    /// `|h_i|` (or to the largest extent when every value is zero).
     ///
     /// # Errors
     /// A constraint with the wrong number of coordinates or a NaN or infinite number; two
@@ -373,7 +374,9 @@ impl NullSpace {
         let top: Vec<f64> = (0..t)
             .map(|i| {
                 let b11: f64 = (0..t).map(|k| b(i, k) * y[k]).sum();
-                let b12: f64 = (0..rest).map(|k| b(i, t + k) * w[(k, 0)]).sum();
+                // Row i of B12 is column i of the symmetric B below row t: contiguous.
+                let column = &self.transformed[i * n + t..(i + 1) * n];
+                let b12: f64 = column.iter().zip(0..rest).map(|(b, k)| b * w[(k, 0)]).sum();
                 c[i] - b11 - b12
             })
             .collect();
@@ -421,11 +424,7 @@ fn reflect(x: &mut [f64], v: &[f64], beta: f64) {
 /// Applies the reflection to every column of `q`.
 fn reflect_columns(q: &mut Mat<f64>, v: &[f64], beta: f64) {
     for j in 0..q.ncols() {
-        let mut col: Vec<f64> = (0..q.nrows()).map(|i| q[(i, j)]).collect();
-        reflect(&mut col, v, beta);
-        for (i, x) in col.into_iter().enumerate() {
-            q[(i, j)] = x;
-        }
+        reflect(q.col_as_slice_mut(j), v, beta);
     }
 }
 
