@@ -229,13 +229,13 @@ pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
         };
         let (below, above) = (neighbour(-1), neighbour(1));
         for (step, d) in [(-1.0, below), (1.0, above)] {
-            if let Some(d) = d {
-                if (d > 0.5) != (d0 > 0.5) {
-                    let mut p = centre;
-                    p[axis] += step * crossing(d0, d);
-                    sum += p;
-                    count += 1;
-                }
+            if let Some(d) = d
+                && (d > 0.5) != (d0 > 0.5)
+            {
+                let mut p = centre;
+                p[axis] += step * crossing(d0, d);
+                sum += p;
+                count += 1;
             }
         }
         gradient[axis] = match (below, above) {

@@ -15,6 +15,9 @@
 //! * `r^2 log r = 0.5 r^2 ln(r^2)` needs no square root; the logarithm is the classic
 //!   fdlibm/musl `log` (exponent split, one division and a degree-14 odd series, error below one
 //!   ulp), written without branches or table lookups so that it vectorizes.
+//! * On AVX-512, `r^2 log r` has a loop of its own written with intrinsics
+//!   ([`thin_plate_avx512`]): a table-driven logarithm without the division, a third fewer
+//!   vector operations per pair, 1.5x the speed of the auto-vectorized loop.
 //! * The loops are compiled for AVX-512, for AVX2 with FMA, and for the baseline target, and the
 //!   best the CPU supports is picked at run time (the default target has no AVX2).
 //! * Blocks of points are spread over threads with rayon.
@@ -23,8 +26,12 @@ use rayon::prelude::*;
 
 use super::{Implicit, Kernel};
 
-/// Points evaluated together, one per vector lane.
-pub const LANES: usize = 8;
+#[cfg(target_arch = "x86_64")]
+mod thin_plate_avx512;
+
+/// Points evaluated together against each centre: two AVX-512 vectors, four AVX2 ones (more
+/// independent work per centre than one vector; 32 spills registers).
+pub const LANES: usize = 16;
 
 /// Points per parallel task.
 const CHUNK: usize = 512;
@@ -57,11 +64,14 @@ impl Arith for Separate {
 trait Phi {
     /// `phi(r) = WEIGHT_SCALE * phi(r2)`.
     const WEIGHT_SCALE: f64 = 1.0;
+    /// Whether this is `r^2 log r`, which has its own AVX-512 loop.
+    const THIN_PLATE: bool = false;
     fn phi<A: Arith>(r2: f64) -> f64;
 }
 
 struct ThinPlate;
 impl Phi for ThinPlate {
+    const THIN_PLATE: bool = true;
     #[inline(always)]
     fn phi<A: Arith>(r2: f64) -> f64 {
         // ln(0) is -inf; clamping to the smallest normal gives 0 * -708 = 0 instead of NaN.
@@ -227,7 +237,13 @@ fn dispatch<const D: usize, K: Phi>(
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `isa` is only Avx512 when the CPU reports these features (checked by callers
         // through `Isa::detect` or `Isa::supported`).
-        Isa::Avx512 => unsafe { run_avx512::<D, K>(c, points, out) },
+        Isa::Avx512 => unsafe {
+            if K::THIN_PLATE {
+                thin_plate_avx512::run::<D>(c, points, out)
+            } else {
+                run_avx512::<D, K>(c, points, out)
+            }
+        },
         #[cfg(target_arch = "x86_64")]
         // SAFETY: as above, for AVX2 and FMA.
         Isa::Avx2 => unsafe { run_avx2::<D, K>(c, points, out) },

@@ -126,7 +126,7 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
 
 fn check(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<()> {
     let s = options.supersampling;
-    if s % 2 == 0 || !(1..=15).contains(&s) {
+    if s.is_multiple_of(2) || !(1..=15).contains(&s) {
         return Err(Error::invalid(
             "voxelize",
             format!("supersampling must be odd and in 1..=15, not {s}"),

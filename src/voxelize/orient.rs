@@ -77,11 +77,11 @@ fn manifold_neighbours(triangles: &[[u32; 3]]) -> Vec<Vec<(u32, bool)>> {
     edges.sort_unstable();
     let mut neighbours = vec![Vec::new(); triangles.len()];
     for group in edges.chunk_by(|x, y| x.0 == y.0) {
-        if let [(_, s, ds), (_, t, dt)] = *group {
-            if s != t {
-                neighbours[s as usize].push((t, ds == dt));
-                neighbours[t as usize].push((s, ds == dt));
-            }
+        if let [(_, s, ds), (_, t, dt)] = *group
+            && s != t
+        {
+            neighbours[s as usize].push((t, ds == dt));
+            neighbours[t as usize].push((s, ds == dt));
         }
     }
     neighbours

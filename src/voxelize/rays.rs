@@ -137,7 +137,7 @@ pub(crate) fn vote(hits: &[Hit], x: f64) -> Option<bool> {
     }
     if total == 0 {
         Some(winding != 0)
-    } else if hits.len() % 2 == 0 {
+    } else if hits.len().is_multiple_of(2) {
         Some(below % 2 == 1)
     } else {
         None
