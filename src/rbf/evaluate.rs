@@ -5,7 +5,11 @@
 //! to zero, and the far-field growth of `r^2 log r` cancels against the polynomial), so the terms
 //! are orders of magnitude larger than the result. f32 would leave an error near
 //! `1e-7 * sum_j |d_j phi_j|`, far above the `1e-6` relative agreement with exact evaluation that
-//! the fit and the peer comparison need; f64 keeps it near `1e-15` of that sum.
+//! the peer comparison and the model's users need; f64 keeps it near `1e-15` of that sum.
+//! The fit's volume passes need less: each voxel's sign and the surface's position to a small
+//! fraction of a voxel. For them [`values_f32`] runs the thin-plate sum in f32 on AVX-512 (16
+//! lanes a vector, 2.6x the f64 loop); on a 768-constraint bunny model that is at most 0.005
+//! voxels off, and a test holds every iteration of a triceratops fit within 0.01 voxels.
 //!
 //! ## How it is fast
 //! * Centres are stored one axis after another (SoA) in normalized coordinates.
@@ -320,6 +324,64 @@ fn values_dim<const D: usize, K: Phi>(
         }
         let mut radial = vec![0.0; out.len()];
         dispatch::<D, K>(isa, &centres, &points, &mut radial);
+        for (o, r) in out.iter_mut().zip(radial) {
+            *o += r;
+        }
+    });
+    out
+}
+
+/// [`values`] with the radial sum in f32 where that is faster: the thin-plate kernel on
+/// AVX-512 (16 lanes a vector instead of 8), elsewhere the f64 loops. The error grows to about
+/// `1e-7 sum_j |d_j phi_j|` (see the module doc): for the fit's volume passes, which need only
+/// each voxel's sign and the surface's position to a small fraction of a voxel.
+pub(super) fn values_f32(
+    implicit: &Implicit,
+    count: usize,
+    point: impl Fn(usize, &mut [f64]) + Sync,
+) -> Vec<f64> {
+    #[cfg(target_arch = "x86_64")]
+    if implicit.kernel == Kernel::ThinPlate && Isa::detect() == Isa::Avx512 {
+        return match implicit.dim {
+            2 => values_dim_f32::<2>(implicit, count, &point),
+            3 => values_dim_f32::<3>(implicit, count, &point),
+            _ => values_dim_f32::<4>(implicit, count, &point),
+        };
+    }
+    values(implicit, count, point)
+}
+
+#[cfg(target_arch = "x86_64")]
+fn values_dim_f32<const D: usize>(
+    implicit: &Implicit,
+    count: usize,
+    point: &(impl Fn(usize, &mut [f64]) + Sync),
+) -> Vec<f64> {
+    use thin_plate_avx512::LANES_F32;
+    let centres: Vec<f32> = implicit.centres.iter().map(|&c| c as f32).collect();
+    let weights: Vec<f32> = implicit.weights.iter().map(|&d| d as f32).collect();
+    let poly = &implicit.polynomial;
+    let mut out = vec![0.0; count];
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(chunk, out)| {
+        let start = chunk * CHUNK;
+        let padded = out.len().div_ceil(LANES_F32) * LANES_F32;
+        let mut points: [Vec<f32>; D] = std::array::from_fn(|_| vec![0.0; padded]);
+        let mut raw = [0.0; D];
+        let mut x = [0.0; D];
+        for i in 0..out.len() {
+            raw.fill(0.0);
+            point(start + i, &mut raw);
+            implicit.normalization.apply(&raw, &mut x);
+            let mut p = poly[0];
+            for a in 0..D {
+                points[a][i] = x[a] as f32;
+                p += poly[a + 1] * x[a];
+            }
+            out[i] = p;
+        }
+        let mut radial = vec![0.0; out.len()];
+        // SAFETY: only reached when the CPU reported AVX-512 (`Isa::detect`).
+        unsafe { thin_plate_avx512::run_f32::<D>(&centres, &weights, &points, &mut radial) };
         for (o, r) in out.iter_mut().zip(radial) {
             *o += r;
         }

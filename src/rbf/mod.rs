@@ -365,6 +365,32 @@ impl Implicit {
     }
 }
 
+/// An implicit function whose bulk evaluation ([`Field::values`]) runs its radial sum in f32
+/// where that is faster (the thin-plate kernel on AVX-512, 2.6x the f64 loop): an error near
+/// `1e-7` of `sum_j |d_j phi_j|` instead of `1e-15` (on a 768-constraint bunny fit, at most
+/// 0.005 voxels). For passes that need signs and the surface's position to a small fraction of
+/// a voxel, as the fit's volume passes; single values and gradients stay f64.
+#[derive(Debug, Clone, Copy)]
+pub struct SinglePrecision<'a>(pub &'a Implicit);
+
+impl Field for SinglePrecision<'_> {
+    fn value(&self, p: DVec3) -> f64 {
+        self.0.value(p)
+    }
+
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        self.0.gradient(p)
+    }
+
+    fn values(&self, points: &[DVec3]) -> Vec<f64> {
+        evaluate::values_f32(self.0, points.len(), |i, out| {
+            let p = points[i].to_array();
+            let k = out.len().min(3);
+            out[..k].copy_from_slice(&p[..k]);
+        })
+    }
+}
+
 impl Field for Implicit {
     /// The value at `p`; 2D functions ignore `z`, 4D functions take `t = 0`.
     fn value(&self, p: DVec3) -> f64 {
