@@ -303,12 +303,33 @@ fn values_dim<const D: usize, K: Phi>(
 ) -> Vec<f64> {
     let weights: Vec<f64> = implicit.weights.iter().map(|d| d * K::WEIGHT_SCALE).collect();
     let centres = Centres { centres: &implicit.centres, weights: &weights };
+    in_chunks::<D, f64>(
+        implicit,
+        count,
+        point,
+        LANES,
+        |x| x,
+        |points, sums| dispatch::<D, K>(isa, &centres, points, sums),
+    )
+}
+
+/// The values at `count` points, in parallel chunks: each chunk's normalized points go to
+/// `radial` per axis (as `T`, zero-padded to a multiple of `lanes`), which writes their radial
+/// sums; the polynomial is added in f64.
+fn in_chunks<const D: usize, T: Copy + Default>(
+    implicit: &Implicit,
+    count: usize,
+    point: &(impl Fn(usize, &mut [f64]) + Sync),
+    lanes: usize,
+    convert: impl Fn(f64) -> T + Sync,
+    radial: impl Fn(&[Vec<T>; D], &mut [f64]) + Sync,
+) -> Vec<f64> {
     let poly = &implicit.polynomial;
     let mut out = vec![0.0; count];
     out.par_chunks_mut(CHUNK).enumerate().for_each(|(chunk, out)| {
         let start = chunk * CHUNK;
-        let padded = out.len().div_ceil(LANES) * LANES;
-        let mut points: [Vec<f64>; D] = std::array::from_fn(|_| vec![0.0; padded]);
+        let padded = out.len().div_ceil(lanes) * lanes;
+        let mut points: [Vec<T>; D] = std::array::from_fn(|_| vec![T::default(); padded]);
         let mut raw = [0.0; D];
         let mut x = [0.0; D];
         for i in 0..out.len() {
@@ -317,14 +338,14 @@ fn values_dim<const D: usize, K: Phi>(
             implicit.normalization.apply(&raw, &mut x);
             let mut p = poly[0];
             for a in 0..D {
-                points[a][i] = x[a];
+                points[a][i] = convert(x[a]);
                 p += poly[a + 1] * x[a];
             }
             out[i] = p;
         }
-        let mut radial = vec![0.0; out.len()];
-        dispatch::<D, K>(isa, &centres, &points, &mut radial);
-        for (o, r) in out.iter_mut().zip(radial) {
+        let mut sums = vec![0.0; out.len()];
+        radial(&points, &mut sums);
+        for (o, r) in out.iter_mut().zip(sums) {
             *o += r;
         }
     });
@@ -357,36 +378,20 @@ fn values_dim_f32<const D: usize>(
     count: usize,
     point: &(impl Fn(usize, &mut [f64]) + Sync),
 ) -> Vec<f64> {
-    use thin_plate_avx512::LANES_F32;
     let centres: Vec<f32> = implicit.centres.iter().map(|&c| c as f32).collect();
     let weights: Vec<f32> = implicit.weights.iter().map(|&d| d as f32).collect();
-    let poly = &implicit.polynomial;
-    let mut out = vec![0.0; count];
-    out.par_chunks_mut(CHUNK).enumerate().for_each(|(chunk, out)| {
-        let start = chunk * CHUNK;
-        let padded = out.len().div_ceil(LANES_F32) * LANES_F32;
-        let mut points: [Vec<f32>; D] = std::array::from_fn(|_| vec![0.0; padded]);
-        let mut raw = [0.0; D];
-        let mut x = [0.0; D];
-        for i in 0..out.len() {
-            raw.fill(0.0);
-            point(start + i, &mut raw);
-            implicit.normalization.apply(&raw, &mut x);
-            let mut p = poly[0];
-            for a in 0..D {
-                points[a][i] = x[a] as f32;
-                p += poly[a + 1] * x[a];
-            }
-            out[i] = p;
-        }
-        let mut radial = vec![0.0; out.len()];
-        // SAFETY: only reached when the CPU reported AVX-512 (`Isa::detect`).
-        unsafe { thin_plate_avx512::run_f32::<D>(&centres, &weights, &points, &mut radial) };
-        for (o, r) in out.iter_mut().zip(radial) {
-            *o += r;
-        }
-    });
-    out
+    let lanes = thin_plate_avx512::LANES_F32;
+    in_chunks::<D, f32>(
+        implicit,
+        count,
+        point,
+        lanes,
+        |x| x as f32,
+        |points, sums| {
+            // SAFETY: only reached when the CPU reported AVX-512 (`Isa::detect`).
+            unsafe { thin_plate_avx512::run_f32::<D>(&centres, &weights, points, sums) }
+        },
+    )
 }
 
 /// Fills the kernel block of the interpolation matrix, `phi(|c_i - c_j|)` for the `n`
