@@ -72,6 +72,32 @@ fn a_scaled_and_moved_mesh_gives_the_same_fit_in_voxels() {
     assert!((a.rms_error_voxels - b.rms_error_voxels).abs() < 1e-3);
 }
 
+/// Refinement snaps a candidate near the goal onto the goal's surface (see `FitOptions::
+/// snap_distance`): from up to three voxels inside or outside a sphere the projection lands on
+/// the sphere, and where there is no nearest point (the centre) there is none.
+#[test]
+fn points_near_the_goal_project_onto_its_surface() {
+    let sphere = common::sphere(DVec3::ZERO, 1.0, 48, 96);
+    let grid = Grid::around(&sphere.bounds().unwrap(), Resolution::LongestAxis(48)).unwrap();
+    let density = voxelize::voxelize(&sphere, &grid, &Default::default()).unwrap();
+    let goal = Goal::from_density(density, &FitOptions::default().regularity);
+    let centre = grid.to_grid(DVec3::ZERO);
+    let radius = 1.0 / grid.voxel_size;
+    let directions = [DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::new(-1.0, 2.0, 3.0), -DVec3::Z];
+    for direction in directions {
+        for offset in [-3.0, -1.7, -0.4, 0.6, 2.2, 3.0] {
+            let p = centre + direction.normalize() * (radius + offset);
+            let q = goal.project_to_surface(p).expect("a point near the sphere projects");
+            let off = (q.distance(centre) - radius).abs();
+            assert!(off < 0.35, "{p} projects to {q}, {off} voxels off the sphere");
+            assert!(goal.sub_voxel().signed_distance(q).abs() <= 0.1);
+            let sideways = (q - centre).normalize().cross(direction.normalize()).length();
+            assert!(sideways < 0.05, "{p} projects sideways to {q}");
+        }
+    }
+    assert_eq!(goal.project_to_surface(centre), None);
+}
+
 #[test]
 fn two_separate_spheres_are_both_found() {
     let mut spheres = common::sphere(DVec3::ZERO, 1.0, 24, 48);

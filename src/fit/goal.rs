@@ -43,4 +43,42 @@ impl Goal {
     pub fn sub_voxel(&self) -> SubVoxel<'_> {
         SubVoxel { values: &self.density, level: 0.5, sd: &self.sd, reach: 1.5 }
     }
+
+    /// The point of the goal's surface nearest `p` (continuous voxel coordinates), or `None`
+    /// where it cannot be found reliably.
+    ///
+    /// The first step goes from `p` along the gradient of the voxel signed distance by the
+    /// sub-voxel signed distance; up to [`PROJECTION_STEPS`] more correct it along the
+    /// densities' gradient (the voxel signed distance's where the densities are flat). The
+    /// point is kept only if its sub-voxel signed distance is within [`PROJECTION_TOLERANCE`]
+    /// voxels of zero: near a crease or a medial sheet the gradient turns, and a point that does
+    /// not settle on the surface would be a boundary constraint off the goal's surface.
+    pub fn project_to_surface(&self, p: DVec3) -> Option<DVec3> {
+        let fine = self.sub_voxel();
+        let mut q = p;
+        for step in 0..=PROJECTION_STEPS {
+            let d = f64::from(fine.signed_distance(q));
+            if d.abs() <= PROJECTION_TOLERANCE {
+                return Some(q);
+            }
+            if step == PROJECTION_STEPS {
+                break;
+            }
+            let mut direction = distance::gradient(&self.density, q);
+            if step == 0 || direction.length() < 1e-3 {
+                direction = distance::gradient(&self.sd, q);
+            }
+            if direction.length() < 1e-6 {
+                break;
+            }
+            q -= direction.normalize() * d;
+        }
+        None
+    }
 }
+
+/// Newton steps of [`Goal::project_to_surface`] after the first.
+const PROJECTION_STEPS: usize = 4;
+
+/// How far (voxels) from the goal's surface a projected point may end.
+const PROJECTION_TOLERANCE: f64 = 0.1;

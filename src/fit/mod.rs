@@ -59,7 +59,14 @@ pub struct FitOptions {
     pub error_fraction: f32,
     /// A candidate whose weighted error is below this is pruned (paper: 0.125).
     pub min_weighted_error: f32,
-    /// Stop once E is at most this, in voxels.
+    /// A candidate from the current surface whose error is at most this (voxels) becomes a
+    /// boundary constraint at the nearest point of the goal's surface instead of a soft
+    /// constraint, where that point is found (paper: soft constraints only, which 0 restores;
+    /// see `refine.rs` for why).
+    pub snap_distance: f64,
+    /// Stop once E is at most this, in voxels. The paper sets no default; 2 voxels is half the
+    /// paper's error on its bunny. E moves in the voxel grid's steps (√k − ½: 2.33, 1.95, 1.74,
+    /// 1.5, ...), and each step down costs hundreds of constraints more.
     pub target_error: f32,
     /// Stop once Ew is at most this.
     pub target_weighted_error: f32,
@@ -69,6 +76,10 @@ pub struct FitOptions {
     /// ears) pinch and recover, while the RMS error keeps falling; stopping on E alone ended
     /// some bunny fits at E 4.6 after 274 constraints that go on to E 2.3.
     pub patience: usize,
+    /// An RMS error counts as an improvement for `patience` only if it is below the lowest so
+    /// far by at least this fraction of it, so a fit whose E is stuck does not go on for ever
+    /// on hundredths of a voxel.
+    pub min_rms_improvement: f32,
     /// Stop after this many iterations.
     pub max_iterations: usize,
     /// Never add constraints beyond this many in all.
@@ -96,9 +107,11 @@ impl Default for FitOptions {
             min_constraint_spacing: 2.0,
             error_fraction: 0.5,
             min_weighted_error: 0.125,
-            target_error: 0.5,
+            snap_distance: 3.0,
+            target_error: 2.0,
             target_weighted_error: 0.0,
             patience: 4,
+            min_rms_improvement: 0.01,
             max_iterations: 40,
             max_constraints: 2000,
             max_growth: 0.1,
@@ -174,10 +187,10 @@ pub fn fit(
         if best.as_ref().is_none_or(|(_, b, _)| better(&metrics, b)) {
             best = Some((implicit, metrics, iteration));
         }
-        if metrics.rms_error_subvoxel < best_rms {
-            best_rms = metrics.rms_error_subvoxel;
+        if metrics.rms_error_subvoxel < best_rms * (1.0 - options.min_rms_improvement) {
             last_improvement = iteration;
         }
+        best_rms = best_rms.min(metrics.rms_error_subvoxel);
         if best.as_ref().is_some_and(|b| b.2 == iteration) {
             last_improvement = iteration;
         }
@@ -189,6 +202,7 @@ pub fn fit(
         }
         let clock = Instant::now();
         let mut added = refine::new_constraints(
+            goal,
             &measured.goal_side,
             &measured.current_side,
             metrics.max_error_subvoxel,
