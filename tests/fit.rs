@@ -69,7 +69,11 @@ fn a_scaled_and_moved_mesh_gives_the_same_fit_in_voxels() {
     assert_eq!(a.constraints, b.constraints);
     assert_eq!(a.iterations, b.iterations);
     assert!((a.max_error_voxels - b.max_error_voxels).abs() < 1e-3);
-    assert!((a.rms_error_voxels - b.rms_error_voxels).abs() < 1e-3);
+    // The current surface is evaluated in single precision, so its points differ by ~1e-5
+    // voxel between the two, and a candidate tied with another to that precision may give way
+    // to it: the RMS error agrees to a percent, not to the last digit.
+    let rms = (a.rms_error_voxels - b.rms_error_voxels).abs() / a.rms_error_voxels;
+    assert!(rms < 0.02, "RMS {} against {}", a.rms_error_voxels, b.rms_error_voxels);
 }
 
 /// Refinement snaps a candidate near the goal onto the goal's surface (see `FitOptions::
@@ -96,6 +100,39 @@ fn points_near_the_goal_project_onto_its_surface() {
         }
     }
     assert_eq!(goal.project_to_surface(centre), None);
+}
+
+/// A voxel or so off the surface the densities saturate and Newton steps on them overshoot
+/// back and forth; points there still find the surface. On the vendored triceratops at the
+/// paper's 320 voxels, Newton steps alone left 35 of 64,056 such points without one.
+#[test]
+fn points_where_the_densities_saturate_project_onto_the_surface() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/triceratops.obj");
+    let (triceratops, _) = implicitize::mesh::read(std::path::Path::new(path)).unwrap();
+    let bounds = triceratops.bounds().unwrap();
+    let grid = Grid::around(&bounds, Resolution::LongestAxis(320)).unwrap();
+    let density = voxelize::voxelize(&triceratops, &grid, &Default::default()).unwrap();
+    let goal = Goal::from_density(density, &FitOptions::default().regularity);
+    let (mut lost, mut far, mut total) = (0, 0, 0);
+    for &s in goal.surface.iter().step_by(7) {
+        let normal = implicitize::distance::gradient(&goal.sd, s).normalize_or_zero();
+        if normal == DVec3::ZERO || goal.sub_voxel().signed_distance(s).abs() > 0.1 {
+            continue;
+        }
+        for offset in [-2.5, -1.45, -1.2, -0.9, 0.9, 1.2, 1.45, 2.5] {
+            let p = s + normal * offset;
+            total += 1;
+            match goal.project_to_surface(p) {
+                // The surface passes within |offset| of p, at s; near thin parts the gradient
+                // may lead to another point of it, a little further.
+                Some(q) => far += usize::from(q.distance(p) > offset.abs() + 0.75),
+                None => lost += 1,
+            }
+        }
+    }
+    assert!(total > 50_000);
+    assert!(lost <= 5, "{lost} of {total} points found no surface");
+    assert!(far <= total / 1000, "{far} of {total} points went to a far point of the surface");
 }
 
 #[test]

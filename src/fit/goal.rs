@@ -49,17 +49,26 @@ impl Goal {
     ///
     /// The first step goes from `p` along the gradient of the voxel signed distance by the
     /// sub-voxel signed distance; up to [`PROJECTION_STEPS`] more correct it along the
-    /// densities' gradient (the voxel signed distance's where the densities are flat). The
-    /// point is kept only if its sub-voxel signed distance is within [`PROJECTION_TOLERANCE`]
-    /// voxels of zero: near a crease or a medial sheet the gradient turns, and a point that does
-    /// not settle on the surface would be a boundary constraint off the goal's surface.
+    /// densities' gradient (the voxel signed distance's where the densities are flat). Where the
+    /// densities saturate (a voxel or more from the surface) their gradient is small and these
+    /// steps overshoot, so once two steps end on opposite sides of the surface the crossing of
+    /// the densities through 1/2 on the segment between them is found by bisection. The point
+    /// is kept only if its sub-voxel signed distance is within [`PROJECTION_TOLERANCE`] voxels
+    /// of zero: near a crease or a medial sheet the gradient turns, and a point that does not
+    /// settle on the surface would be a boundary constraint off the goal's surface.
     pub fn project_to_surface(&self, p: DVec3) -> Option<DVec3> {
         let fine = self.sub_voxel();
         let mut q = p;
+        let mut previous: Option<(DVec3, f64)> = None;
         for step in 0..=PROJECTION_STEPS {
             let d = f64::from(fine.signed_distance(q));
             if d.abs() <= PROJECTION_TOLERANCE {
                 return Some(q);
+            }
+            if let Some((before, d_before)) = previous
+                && d_before * d < 0.0
+            {
+                return self.bisect_crossing(before, q);
             }
             if step == PROJECTION_STEPS {
                 break;
@@ -71,14 +80,39 @@ impl Goal {
             if direction.length() < 1e-6 {
                 break;
             }
+            previous = Some((q, d));
             q -= direction.normalize() * d;
         }
         None
+    }
+
+    /// The point between `a` and `b`, on opposite sides of the surface, where the densities
+    /// cross 1/2, by bisection; `None` if it is not within [`PROJECTION_TOLERANCE`] of the
+    /// surface by the sub-voxel signed distance.
+    fn bisect_crossing(&self, a: DVec3, b: DVec3) -> Option<DVec3> {
+        let excess = |q: DVec3| f64::from(distance::sample(&self.density, q)) - 0.5;
+        let (mut inside, mut outside) = if excess(a) > 0.0 { (a, b) } else { (b, a) };
+        if excess(inside) <= 0.0 || excess(outside) > 0.0 {
+            return None;
+        }
+        while inside.distance(outside) > BISECTION_LENGTH {
+            let middle = (inside + outside) * 0.5;
+            if excess(middle) > 0.0 {
+                inside = middle;
+            } else {
+                outside = middle;
+            }
+        }
+        let q = (inside + outside) * 0.5;
+        (f64::from(self.sub_voxel().signed_distance(q)).abs() <= PROJECTION_TOLERANCE).then_some(q)
     }
 }
 
 /// Newton steps of [`Goal::project_to_surface`] after the first.
 const PROJECTION_STEPS: usize = 4;
+
+/// The bisection of [`Goal::project_to_surface`] stops on a segment this short (voxels).
+const BISECTION_LENGTH: f64 = 1e-9;
 
 /// How far (voxels) from the goal's surface a projected point may end.
 const PROJECTION_TOLERANCE: f64 = 0.1;

@@ -57,7 +57,8 @@ pub struct FitOptions {
     pub min_constraint_spacing: f64,
     /// A candidate whose error is below this fraction of E is pruned (paper: 1/2).
     pub error_fraction: f32,
-    /// A candidate whose weighted error is below this is pruned (paper: 0.125).
+    /// A candidate whose weighted error is below this is pruned (paper: 0.125), unless its
+    /// voxel error is above `target_error` (see `refine.rs`).
     pub min_weighted_error: f32,
     /// A candidate from the current surface whose error is at most this (voxels) becomes a
     /// boundary constraint at the nearest point of the goal's surface instead of a soft
