@@ -35,49 +35,26 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
     if grid.is_empty() {
         return Volume { grid, data: d2 };
     }
-    // Along k: rows are contiguous.
-    d2.par_chunks_mut(nz).zip(states.par_chunks(nz)).for_each(|(row, state)| {
-        row_distances(state, row);
-    });
+    // Along i first: the 1D distances need only the states, swept slab by slab.
+    axis_i_distances(states, &mut d2, nx, ny * nz);
     // Along j: within each i-slab.
-    d2.par_chunks_mut(ny * nz).zip(states.par_chunks(ny * nz)).for_each(|(slab, state)| {
-        let mut line = Line::new(ny);
-        for k in 0..nz {
-            line.load(|j| (state[j * nz + k], slab[j * nz + k]));
-            line.solve(|j, d| slab[j * nz + k] = d);
-        }
-    });
-    // Along i: lines cross every slab, so j-planes are computed in parallel batches and
-    // written back after each batch.
-    let batch = (rayon::current_num_threads() * 4).max(1);
-    for first in (0..ny).step_by(batch) {
-        let planes: Vec<Vec<f32>> = (first..(first + batch).min(ny))
-            .into_par_iter()
-            .map(|j| {
-                // The (i, k) plane at this j, gathered row by row (rows are contiguous), so
-                // the lines along i read a plane that stays in cache.
-                let mut plane = Vec::with_capacity(nx * nz);
-                let mut plane_states = Vec::with_capacity(nx * nz);
-                for i in 0..nx {
-                    let row = (i * ny + j) * nz;
-                    plane.extend_from_slice(&d2[row..row + nz]);
-                    plane_states.extend_from_slice(&states[row..row + nz]);
-                }
-                let mut line = Line::new(nx);
-                for k in 0..nz {
-                    line.load(|i| (plane_states[i * nz + k], plane[i * nz + k]));
-                    line.solve(|i, d| plane[i * nz + k] = d);
-                }
-                plane
-            })
-            .collect();
-        for (j, plane) in (first..).zip(planes) {
-            for i in 0..nx {
-                let row = (i * ny + j) * nz;
-                d2[row..row + nz].copy_from_slice(&plane[i * nz..(i + 1) * nz]);
+    d2.par_chunks_mut(ny * nz).zip(states.par_chunks(ny * nz)).for_each_init(
+        || Line::new(ny),
+        |line, (slab, state)| {
+            for k in 0..nz {
+                line.load(|j| (state[j * nz + k], slab[j * nz + k]));
+                line.solve(|j, d| slab[j * nz + k] = d);
             }
-        }
-    }
+        },
+    );
+    // Along k: rows are contiguous.
+    d2.par_chunks_mut(nz).zip(states.par_chunks(nz)).for_each_init(
+        || Line::new(nz),
+        |line, (row, state)| {
+            line.load(|k| (state[k], row[k]));
+            line.solve(|k, d| row[k] = d);
+        },
+    );
     d2.par_iter_mut().zip(states.par_iter()).for_each(|(d, &inside)| {
         // In f64 then rounded once, as SciPy's float64 result cast to float32.
         let r = f64::from(*d).sqrt() - 0.5;
@@ -86,24 +63,52 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
     Volume { grid, data: d2 }
 }
 
-/// Squared distances along one row from each voxel to the nearest voxel of the other state.
-fn row_distances(state: &[bool], out: &mut [f32]) {
-    let n = state.len();
-    let mut last: Option<usize> = None;
-    for q in 0..n {
-        if q > 0 && state[q - 1] != state[q] {
-            last = Some(q - 1);
-        }
-        out[q] = last.map_or(f32::INFINITY, |p| ((q - p) * (q - p)) as f32);
+/// Squared distances along i (the outermost axis, `plane` voxels apart) from each voxel to the
+/// nearest voxel of the other state on its line. A forward and a backward sweep go slab by slab
+/// and keep, for every line at once, the last change of state seen: every access is to
+/// contiguous memory, and each slab is split between the threads.
+fn axis_i_distances(states: &[bool], d2: &mut [f32], nx: usize, plane: usize) {
+    const NONE: u32 = u32::MAX;
+    let chunk = plane.div_ceil(rayon::current_num_threads() * 4).max(1024);
+    let mut seen = vec![NONE; plane];
+    for i in 0..nx {
+        let slab = &states[i * plane..(i + 1) * plane];
+        let previous = (i > 0).then(|| &states[(i - 1) * plane..i * plane]);
+        let out = &mut d2[i * plane..(i + 1) * plane];
+        out.par_chunks_mut(chunk).zip(seen.par_chunks_mut(chunk)).enumerate().for_each(
+            |(c, (out, seen))| {
+                let start = c * chunk;
+                for (n, (d, last)) in out.iter_mut().zip(seen.iter_mut()).enumerate() {
+                    if previous.is_some_and(|p| p[start + n] != slab[start + n]) {
+                        *last = (i - 1) as u32;
+                    }
+                    *d = if *last == NONE {
+                        f32::INFINITY
+                    } else {
+                        ((i - *last as usize).pow(2)) as f32
+                    };
+                }
+            },
+        );
     }
-    let mut next: Option<usize> = None;
-    for q in (0..n).rev() {
-        if q + 1 < n && state[q + 1] != state[q] {
-            next = Some(q + 1);
-        }
-        if let Some(p) = next {
-            out[q] = out[q].min(((p - q) * (p - q)) as f32);
-        }
+    seen.fill(NONE);
+    for i in (0..nx).rev() {
+        let slab = &states[i * plane..(i + 1) * plane];
+        let following = (i + 1 < nx).then(|| &states[(i + 1) * plane..(i + 2) * plane]);
+        let out = &mut d2[i * plane..(i + 1) * plane];
+        out.par_chunks_mut(chunk).zip(seen.par_chunks_mut(chunk)).enumerate().for_each(
+            |(c, (out, seen))| {
+                let start = c * chunk;
+                for (n, (d, next)) in out.iter_mut().zip(seen.iter_mut()).enumerate() {
+                    if following.is_some_and(|f| f[start + n] != slab[start + n]) {
+                        *next = (i + 1) as u32;
+                    }
+                    if *next != NONE {
+                        *d = d.min(((*next as usize - i).pow(2)) as f32);
+                    }
+                }
+            },
+        );
     }
 }
 
@@ -112,13 +117,22 @@ fn row_distances(state: &[bool], out: &mut [f32]) {
 struct Line {
     f: Vec<f64>,
     state: Vec<bool>,
+    /// The envelope's parabolas: their voxels, their heights `f(p) + p^2` and the boundaries
+    /// between them.
     v: Vec<usize>,
+    h: Vec<f64>,
     z: Vec<f64>,
 }
 
 impl Line {
     fn new(n: usize) -> Line {
-        Line { f: vec![0.0; n], state: vec![false; n], v: vec![0; n], z: vec![0.0; n + 1] }
+        Line {
+            f: vec![0.0; n],
+            state: vec![false; n],
+            v: vec![0; n],
+            h: vec![0.0; n],
+            z: vec![0.0; n + 1],
+        }
     }
 
     /// Reads each voxel's state and squared distance so far with `get`.
@@ -133,59 +147,57 @@ impl Line {
     /// Writes with `set` each voxel's squared distance to the nearest voxel of the other
     /// state, over the line and the distances loaded.
     fn solve(&mut self, mut set: impl FnMut(usize, f32)) {
-        let n = self.f.len();
         for side in [true, false] {
             if !self.state.contains(&side) {
                 continue;
             }
             // For voxels of `side`, voxels of the other state are features at distance 0.
-            let f = |p: usize| {
-                if self.state[p] == side { self.f[p] } else { 0.0 }
-            };
+            let parabolas = self.envelope(side);
             let mut k = 0usize;
-            let mut any = false;
-            for q in 0..n {
-                let fq = f(q);
-                if !fq.is_finite() {
-                    continue;
-                }
-                if !any {
-                    any = true;
-                    self.v[0] = q;
-                    self.z[0] = f64::NEG_INFINITY;
-                    self.z[1] = f64::INFINITY;
-                    continue;
-                }
-                let cross = |p: usize| {
-                    ((fq + (q * q) as f64) - (f(p) + (p * p) as f64)) / (2.0 * (q - p) as f64)
-                };
-                let mut s = cross(self.v[k]);
-                while s <= self.z[k] {
-                    k -= 1;
-                    s = cross(self.v[k]);
-                }
-                k += 1;
-                self.v[k] = q;
-                self.z[k] = s;
-                self.z[k + 1] = f64::INFINITY;
-            }
-            let mut k = 0usize;
-            for q in 0..n {
+            for q in 0..self.f.len() {
                 if self.state[q] != side {
                     continue;
                 }
-                if !any {
+                if parabolas == 0 {
                     set(q, f32::INFINITY);
                     continue;
                 }
                 while self.z[k + 1] < q as f64 {
                     k += 1;
                 }
-                let p = self.v[k];
-                let dq = q as f64 - p as f64;
-                set(q, (dq * dq + f(p)) as f32);
+                let dq = q as f64 - self.v[k] as f64;
+                set(q, (dq * dq + self.h[k] - (self.v[k] * self.v[k]) as f64) as f32);
             }
         }
+    }
+
+    /// Builds the lower envelope of the parabolas `(x - p)^2 + f(p)` over the voxels `p` of the
+    /// line with `f(p)` taken as 0 for voxels not of `side`, and returns how many it has.
+    fn envelope(&mut self, side: bool) -> usize {
+        let mut k = 0usize;
+        let mut count = 0usize;
+        for q in 0..self.f.len() {
+            let fq = if self.state[q] == side { self.f[q] } else { 0.0 };
+            if fq == f64::INFINITY {
+                continue;
+            }
+            let hq = fq + (q * q) as f64;
+            if count == 0 {
+                (self.v[0], self.h[0], self.z[0], self.z[1]) =
+                    (q, hq, f64::NEG_INFINITY, f64::INFINITY);
+                count = 1;
+                continue;
+            }
+            let mut s = (hq - self.h[k]) / (2 * (q - self.v[k])) as f64;
+            while s <= self.z[k] {
+                k -= 1;
+                s = (hq - self.h[k]) / (2 * (q - self.v[k])) as f64;
+            }
+            k += 1;
+            (self.v[k], self.h[k], self.z[k], self.z[k + 1]) = (q, hq, s, f64::INFINITY);
+            count = k + 1;
+        }
+        count
     }
 }
 
