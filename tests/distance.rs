@@ -50,7 +50,11 @@ proptest! {
 
 #[test]
 fn two_dimensional_and_thin_volumes_equal_brute_force() {
-    for dims in [[23, 17, 1], [1, 30, 1], [1, 1, 40], [12, 1, 9], [1, 13, 11]] {
+    // [5, 40, 60] and [3, 1, 2000]: slabs of more than 1024 voxels, split between threads by
+    // the first pass.
+    for dims in
+        [[23, 17, 1], [1, 30, 1], [1, 1, 40], [12, 1, 9], [1, 13, 11], [5, 40, 60], [3, 1, 2000]]
+    {
         let g = grid(dims);
         let data = (0..g.len()).map(|i| (i * 2654435761usize) % 7 < 3).collect();
         let v = Volume { grid: g, data };

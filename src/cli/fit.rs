@@ -32,7 +32,8 @@ pub struct FitArgs {
     /// Stop after this many iterations.
     #[arg(long, default_value_t = FitOptions::default().max_iterations)]
     pub max_iterations: usize,
-    /// Stop once the max error E is at most this many voxels.
+    /// Stop once the max error E is at most this many voxels; errors above it are corrected
+    /// however flat the surface is there.
     #[arg(long, default_value_t = FitOptions::default().target_error)]
     pub target_error: f32,
     /// Never use more constraints than this.

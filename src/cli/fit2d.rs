@@ -46,7 +46,8 @@ pub struct Fit2dCommand {
     /// Stop after this many iterations.
     #[arg(long, default_value_t = FitOptions::default().max_iterations)]
     pub max_iterations: usize,
-    /// Stop once the max error E is at most this many pixels.
+    /// Stop once the max error E is at most this many pixels; errors above it are corrected
+    /// however flat the contour is there.
     #[arg(long, default_value_t = FitOptions::default().target_error)]
     pub target_error: f32,
     /// Never use more constraints than this.

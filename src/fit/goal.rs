@@ -95,7 +95,7 @@ impl Goal {
         if excess(inside) <= 0.0 || excess(outside) > 0.0 {
             return None;
         }
-        while inside.distance(outside) > BISECTION_LENGTH {
+        for _ in 0..BISECTION_STEPS {
             let middle = (inside + outside) * 0.5;
             if excess(middle) > 0.0 {
                 inside = middle;
@@ -111,8 +111,9 @@ impl Goal {
 /// Newton steps of [`Goal::project_to_surface`] after the first.
 const PROJECTION_STEPS: usize = 4;
 
-/// The bisection of [`Goal::project_to_surface`] stops on a segment this short (voxels).
-const BISECTION_LENGTH: f64 = 1e-9;
+/// Halvings of the bisection of [`Goal::project_to_surface`]: a segment of a few voxels ends
+/// some 1e-12 voxel long.
+const BISECTION_STEPS: usize = 42;
 
 /// How far (voxels) from the goal's surface a projected point may end.
 const PROJECTION_TOLERANCE: f64 = 0.1;

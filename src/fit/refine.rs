@@ -70,6 +70,7 @@ pub fn new_constraints(
     }
     for i in 0..current_side.voxels.len() {
         let error = current_side.fine_error(i);
+        // rreg is measured wherever the error reaches `min_error` (see `current_regularity`).
         let weighted = error / current_side.rreg[i];
         if error >= min_error && noticeable(weighted, current_side.error(i), options) {
             let constraint = current_side_constraint(goal, current_side, i, options);
