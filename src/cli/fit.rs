@@ -21,31 +21,27 @@ pub enum Method {
     Naive,
 }
 
-/// The options of the fit itself, shared by `fit` and `demo`.
+/// The iterative fit's own settings, shared by `fit`, `demo` and `fit2d`.
 #[derive(Debug, Args)]
-pub struct FitArgs {
-    #[command(flatten)]
-    pub grid: GridArgs,
+pub struct LoopArgs {
     /// Seed of the random choice of initial constraints (same seed, same model).
     #[arg(long, default_value_t = FitOptions::default().seed)]
     pub seed: u64,
     /// Stop after this many iterations.
     #[arg(long, default_value_t = FitOptions::default().max_iterations)]
     pub max_iterations: usize,
-    /// Stop once the max error E is at most this many voxels; errors above it are corrected
-    /// however flat the surface is there.
+    /// Stop once the max error E is at most this many voxels (pixels in 2D); errors above it
+    /// are corrected however flat the surface is there.
     #[arg(long, default_value_t = FitOptions::default().target_error)]
     pub target_error: f32,
     /// Never use more constraints than this.
     #[arg(long, default_value_t = FitOptions::default().max_constraints)]
     pub max_constraints: usize,
-    /// How the constraints are made.
-    #[arg(long, value_enum, default_value_t = Method::Iterative)]
-    pub method: Method,
 }
 
-impl FitArgs {
-    fn options(&self) -> FitOptions {
+impl LoopArgs {
+    /// The fit's options: these settings, the defaults for the rest.
+    pub fn options(&self) -> FitOptions {
         FitOptions {
             seed: self.seed,
             max_iterations: self.max_iterations,
@@ -53,6 +49,24 @@ impl FitArgs {
             max_constraints: self.max_constraints,
             ..FitOptions::default()
         }
+    }
+}
+
+/// The options of the fit itself, shared by `fit` and `demo`.
+#[derive(Debug, Args)]
+pub struct FitArgs {
+    #[command(flatten)]
+    pub grid: GridArgs,
+    #[command(flatten)]
+    pub settings: LoopArgs,
+    /// How the constraints are made.
+    #[arg(long, value_enum, default_value_t = Method::Iterative)]
+    pub method: Method,
+}
+
+impl FitArgs {
+    fn options(&self) -> FitOptions {
+        self.settings.options()
     }
 }
 

@@ -6,12 +6,13 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::Args;
 use implicitize::figure2::{self, Snapshots};
-use implicitize::fit::{self, FitOptions, Goal};
+use implicitize::fit::{self, Goal};
 use implicitize::goal2d::{self, ImageOptions};
 use implicitize::model::Model;
 use implicitize::rbf::Implicit;
 
 use super::common::Progress;
+use super::fit::LoopArgs;
 
 /// Arguments of `implicitize fit2d`.
 #[derive(Debug, Args)]
@@ -40,19 +41,8 @@ pub struct Fit2dCommand {
     /// Light pixels are inside instead of dark ones.
     #[arg(long)]
     pub invert: bool,
-    /// Seed of the random choice of initial constraints (same seed, same model).
-    #[arg(long, default_value_t = FitOptions::default().seed)]
-    pub seed: u64,
-    /// Stop after this many iterations.
-    #[arg(long, default_value_t = FitOptions::default().max_iterations)]
-    pub max_iterations: usize,
-    /// Stop once the max error E is at most this many pixels; errors above it are corrected
-    /// however flat the contour is there.
-    #[arg(long, default_value_t = FitOptions::default().target_error)]
-    pub target_error: f32,
-    /// Never use more constraints than this.
-    #[arg(long, default_value_t = FitOptions::default().max_constraints)]
-    pub max_constraints: usize,
+    #[command(flatten)]
+    pub settings: LoopArgs,
 }
 
 /// The least side of a figure panel the default scale gives, in picture pixels.
@@ -74,13 +64,7 @@ pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
         grid.dims[0],
         grid.dims[1]
     ));
-    let options = FitOptions {
-        seed: args.seed,
-        max_iterations: args.max_iterations,
-        target_error: args.target_error,
-        max_constraints: args.max_constraints,
-        ..FitOptions::default()
-    };
+    let options = args.settings.options();
     let goal = Goal::from_density(density, &options.regularity);
     let mut early: Vec<Implicit> = Vec::new();
     let fitted = fit::fit(&goal, &options, |line, implicit| {
