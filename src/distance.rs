@@ -64,47 +64,39 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
 }
 
 /// Squared distances along i (the outermost axis, `plane` voxels apart) from each voxel to the
-/// nearest voxel of the other state on its line. A forward and a backward sweep go slab by slab
-/// and keep, for every line at once, the last change of state seen: every access is to
-/// contiguous memory, and each slab is split between the threads.
+/// nearest voxel of the other state on its line: a forward and a backward [`sweep`].
 fn axis_i_distances(states: &[bool], d2: &mut [f32], nx: usize, plane: usize) {
+    d2.par_iter_mut().for_each(|d| *d = f32::INFINITY);
+    sweep(states, d2, nx, plane, true);
+    sweep(states, d2, nx, plane, false);
+}
+
+/// One sweep of [`axis_i_distances`], slab by slab, forward or backward: for every line at once
+/// it keeps the last voxel seen whose state differs from the next one's, and lowers each
+/// voxel's squared distance to it. Every access is to contiguous memory, and each slab is split
+/// between the threads.
+fn sweep(states: &[bool], d2: &mut [f32], nx: usize, plane: usize, forward: bool) {
     const NONE: u32 = u32::MAX;
     let chunk = plane.div_ceil(rayon::current_num_threads() * 4).max(1024);
     let mut seen = vec![NONE; plane];
-    for i in 0..nx {
+    let slabs: Vec<usize> = if forward { (0..nx).collect() } else { (0..nx).rev().collect() };
+    for i in slabs {
+        let neighbour = if forward { i.checked_sub(1) } else { (i + 1 < nx).then_some(i + 1) };
         let slab = &states[i * plane..(i + 1) * plane];
-        let previous = (i > 0).then(|| &states[(i - 1) * plane..i * plane]);
+        // The slab swept just before this one, and its index.
+        let before = neighbour.map(|b| (b as u32, &states[b * plane..(b + 1) * plane]));
         let out = &mut d2[i * plane..(i + 1) * plane];
         out.par_chunks_mut(chunk).zip(seen.par_chunks_mut(chunk)).enumerate().for_each(
             |(c, (out, seen))| {
                 let start = c * chunk;
                 for (n, (d, last)) in out.iter_mut().zip(seen.iter_mut()).enumerate() {
-                    if previous.is_some_and(|p| p[start + n] != slab[start + n]) {
-                        *last = (i - 1) as u32;
+                    if let Some((b, other)) = before
+                        && other[start + n] != slab[start + n]
+                    {
+                        *last = b;
                     }
-                    *d = if *last == NONE {
-                        f32::INFINITY
-                    } else {
-                        ((i - *last as usize).pow(2)) as f32
-                    };
-                }
-            },
-        );
-    }
-    seen.fill(NONE);
-    for i in (0..nx).rev() {
-        let slab = &states[i * plane..(i + 1) * plane];
-        let following = (i + 1 < nx).then(|| &states[(i + 1) * plane..(i + 2) * plane]);
-        let out = &mut d2[i * plane..(i + 1) * plane];
-        out.par_chunks_mut(chunk).zip(seen.par_chunks_mut(chunk)).enumerate().for_each(
-            |(c, (out, seen))| {
-                let start = c * chunk;
-                for (n, (d, next)) in out.iter_mut().zip(seen.iter_mut()).enumerate() {
-                    if following.is_some_and(|f| f[start + n] != slab[start + n]) {
-                        *next = (i + 1) as u32;
-                    }
-                    if *next != NONE {
-                        *d = d.min(((*next as usize - i).pow(2)) as f32);
+                    if *last != NONE {
+                        *d = d.min((i.abs_diff(*last as usize).pow(2)) as f32);
                     }
                 }
             },
