@@ -297,4 +297,16 @@ impl ErrorMetrics {
         }
         metrics
     }
+
+    /// The same metrics in voxels `scale` times smaller: the errors times `scale`, Ew (a ratio
+    /// of two lengths) unchanged.
+    pub fn in_smaller_voxels(self, scale: f32) -> Self {
+        ErrorMetrics {
+            max_error: self.max_error * scale,
+            weighted_error: self.weighted_error,
+            rms_error: self.rms_error * scale,
+            max_error_subvoxel: self.max_error_subvoxel * scale,
+            rms_error_subvoxel: self.rms_error_subvoxel * scale,
+        }
+    }
 }

@@ -53,6 +53,7 @@ fn fit_writes_the_model_the_report_and_the_surface() {
         report["per_iteration"].as_array().unwrap().len() as u64,
         report["iterations"].as_u64().unwrap()
     );
+    assert!(report["per_iteration"].as_array().unwrap().iter().all(|i| i["grid"] == "full"));
     assert!(report["max_error_voxels"].as_f64().unwrap() <= 3.0);
     let model_bytes = report["model_bytes"].as_u64().unwrap();
     assert!(
@@ -62,6 +63,33 @@ fn fit_writes_the_model_the_report_and_the_surface() {
     let (mesh, _) = implicitize::mesh::read(&surface).unwrap();
     assert!(mesh.triangles.len() > 1000);
     implicitize::model::Model::load(&model).unwrap();
+}
+
+/// The grid of each iteration, at 128 voxels, with and without `--full-resolution`.
+fn grids_at_128(flags: &[&str]) -> Vec<String> {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("r.json");
+    let out = implicitize()
+        .arg("fit")
+        .arg(triceratops())
+        .args(["--resolution", "128", "--max-iterations", "3", "--quiet", "-o"])
+        .arg(dir.path().join("t.json"))
+        .arg("--report")
+        .arg(&report)
+        .args(flags)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    let iterations = report["per_iteration"].as_array().unwrap();
+    iterations.iter().map(|i| i["grid"].as_str().unwrap().to_string()).collect()
+}
+
+#[test]
+fn a_large_grid_starts_at_half_the_resolution_unless_told_not_to() {
+    assert_eq!(grids_at_128(&[]), ["half", "half", "full"]);
+    assert_eq!(grids_at_128(&["--full-resolution"]), ["full", "full", "full"]);
 }
 
 #[test]

@@ -198,3 +198,44 @@ fn the_grid_evaluation_finds_every_sign_of_each_triceratops_model() {
     .unwrap();
     assert!(models >= 5, "{models} models checked");
 }
+
+/// On a grid of 128 voxels or more the fit starts at half the resolution and hands its best
+/// constraints over to the full grid, whose models are the ones kept; the iteration limit
+/// counts both.
+#[test]
+fn a_large_grid_starts_at_half_the_resolution() {
+    use implicitize::fit::GridLevel;
+    let torus = common::torus(2.0, 0.7, 128, 64);
+    let options = FitOptions::default();
+    let (_, fitted) = fit_mesh(&torus, 128, &options);
+    let report = &fitted.report;
+    let levels: Vec<GridLevel> = report.per_iteration.iter().map(|i| i.grid).collect();
+    let half = levels.iter().take_while(|&&l| l == GridLevel::Half).count();
+    assert!(half >= 2, "{half} iterations at half the resolution");
+    assert!(levels[half..].iter().all(|&l| l == GridLevel::Full) && half < levels.len());
+    assert!(report.best_iteration > half, "the kept model is one of the full grid");
+    assert!(report.max_error_voxels <= 2.0, "E = {} voxels", report.max_error_voxels);
+    // The full grid starts from the constraints of the best half-resolution model.
+    let coarse = &report.per_iteration[..half];
+    let best = coarse
+        .iter()
+        .min_by(|a, b| {
+            (a.max_error_voxels, a.rms_error_subvoxel_voxels)
+                .partial_cmp(&(b.max_error_voxels, b.rms_error_subvoxel_voxels))
+                .unwrap()
+        })
+        .unwrap();
+    assert_eq!(report.per_iteration[half].constraints.total(), best.constraints.total());
+    // Half-resolution errors are in full-grid voxels: the coarse end is near the target of 4.
+    assert!(coarse.last().unwrap().max_error_voxels <= 2.0 * 2.5);
+    assert!(coarse[0].max_error_voxels > report.max_error_voxels);
+
+    let limited = FitOptions { max_iterations: 5, ..options.clone() };
+    let (_, short) = fit_mesh(&torus, 128, &limited);
+    assert!(short.report.iterations <= 5);
+    assert_eq!(short.report.per_iteration.last().unwrap().grid, GridLevel::Full);
+
+    let full = FitOptions { coarse_start_min_axis: usize::MAX, ..limited };
+    let (_, fine) = fit_mesh(&torus, 128, &full);
+    assert!(fine.report.per_iteration.iter().all(|i| i.grid == GridLevel::Full));
+}

@@ -62,11 +62,20 @@ pub struct FitArgs {
     /// How the constraints are made.
     #[arg(long, value_enum, default_value_t = Method::Iterative)]
     pub method: Method,
+    /// Run every iteration on the full grid: no start at half the resolution (which the fit
+    /// makes on grids of 128 voxels or more along their longest axis).
+    #[arg(long)]
+    pub full_resolution: bool,
 }
 
 impl FitArgs {
     fn options(&self) -> FitOptions {
-        self.settings.options()
+        let options = self.settings.options();
+        if self.full_resolution {
+            FitOptions { coarse_start_min_axis: usize::MAX, ..options }
+        } else {
+            options
+        }
     }
 }
 

@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! constraints = initial_constraints()                      5.1
+//!     (on a large grid: the loop below at half the resolution, then its best constraints)
 //! repeat
 //!     f_curr = solve(constraints)                          3.1
 //!     evaluate f_curr over the volume, coarse to fine      5.2
@@ -16,6 +17,7 @@
 //! in mesh units, so the model file speaks the mesh's units and a scaled or moved mesh gives the
 //! same constraints in voxels. The best model by E, then RMS, is kept, not the last.
 
+mod coarse;
 pub mod goal;
 mod init;
 pub mod naive;
@@ -34,7 +36,7 @@ use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions, SubV
 use crate::rbf::{self, Implicit, Kernel};
 
 pub use goal::Goal;
-pub use report::{ConstraintCounts, FitReport, IterationReport, Timings};
+pub use report::{ConstraintCounts, FitReport, GridLevel, IterationReport, Timings};
 
 /// Every threshold of the fit, with the paper's values as defaults where the paper gives one.
 #[derive(Debug, Clone, PartialEq)]
@@ -91,6 +93,13 @@ pub struct FitOptions {
     /// each other and overshoot. Growing by a fraction keeps the paper's order and pruning and
     /// lets the next iteration see what the last additions did.
     pub max_growth: f64,
+    /// The fit starts on the goal at half the resolution (see `coarse.rs`) when its grid is 3D
+    /// and has at least this many voxels along its longest axis; `usize::MAX` never does.
+    pub coarse_start_min_axis: usize,
+    /// The start at half the resolution hands over to the full grid once its E is at most
+    /// this, in voxels of the full grid (or `target_error`, if larger). 4 voxels is the paper's
+    /// error on its bunny.
+    pub coarse_target_error: f32,
     /// The radial basis function.
     pub kernel: Kernel,
     /// How radii of regularity are measured.
@@ -116,6 +125,8 @@ impl Default for FitOptions {
             max_iterations: 40,
             max_constraints: 2000,
             max_growth: 0.1,
+            coarse_start_min_axis: 128,
+            coarse_target_error: 4.0,
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
         }
@@ -162,17 +173,91 @@ pub fn fit(
 ) -> Result<Fit> {
     let started = Instant::now();
     let grid = *goal.grid();
-    let mut constraints = init::initial_constraints(goal, options);
+    let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
+    let (constraints, iterations_left) = match coarse::CoarseStart::of(goal, options) {
+        Some(start) => {
+            log.totals.signed_distance += started.elapsed().as_secs_f64();
+            let first = init::initial_constraints(&start.goal, options);
+            let stage = iterate(
+                &start.goal,
+                first,
+                &start.options(options),
+                GridLevel::Half,
+                &mut log,
+                &mut on_iteration,
+            )?;
+            let moved = stage.constraints.iter().map(|c| start.to_full(c, goal)).collect();
+            (moved, options.max_iterations - log.per_iteration.len())
+        }
+        None => (init::initial_constraints(goal, options), options.max_iterations),
+    };
+    let first_full = log.per_iteration.len();
+    let full_options = FitOptions { max_iterations: iterations_left, ..options.clone() };
+    let stage =
+        iterate(goal, constraints, &full_options, GridLevel::Full, &mut log, &mut on_iteration)?;
+    let Log { per_iteration, mut totals } = log;
+    let best_iteration = first_full + stage.best_iteration;
+    let metrics = stage.metrics;
+    totals.total = started.elapsed().as_secs_f64();
+    let kept = &per_iteration[best_iteration - 1];
+    let report = FitReport {
+        method: "iterative".into(),
+        iterations: per_iteration.len(),
+        best_iteration,
+        termination: stage.termination,
+        constraints: kept.constraints,
+        max_error_voxels: metrics.max_error,
+        max_error: f64::from(metrics.max_error) * grid.voxel_size,
+        weighted_error: metrics.weighted_error,
+        rms_error_voxels: metrics.rms_error,
+        timings_s: totals,
+        dims: grid.dims,
+        origin: grid.origin,
+        voxel_size: grid.voxel_size,
+        per_iteration,
+        model_bytes: None,
+        mesh_bytes: None,
+    };
+    Ok(Fit { implicit: stage.implicit, report })
+}
+
+/// The figures of the iterations so far, and the time they took.
+struct Log {
+    per_iteration: Vec<IterationReport>,
+    totals: Timings,
+}
+
+/// The outcome of the loop on one goal: its best model and that model's constraints.
+struct Stage {
+    implicit: Implicit,
+    metrics: ErrorMetrics,
+    /// The best model's iteration, counted from the stage's first.
+    best_iteration: usize,
+    termination: String,
+    /// The constraints of the best model.
+    constraints: Vec<FitConstraint>,
+}
+
+/// The loop of paper 5 (5.3 and 5.4) on `goal` from `constraints`, its iterations at grid
+/// `level` of the fit, logged in `log`.
+fn iterate(
+    goal: &Goal,
+    mut constraints: Vec<FitConstraint>,
+    options: &FitOptions,
+    level: GridLevel,
+    log: &mut Log,
+    on_iteration: &mut impl FnMut(&IterationReport, &Implicit),
+) -> Result<Stage> {
+    let grid = *goal.grid();
     constraints.truncate(options.max_constraints);
-    let mut per_iteration: Vec<IterationReport> = Vec::new();
-    let mut best: Option<(Implicit, ErrorMetrics, usize)> = None;
-    let mut totals = Timings::default();
+    let mut best: Option<(Implicit, ErrorMetrics, usize, usize)> = None;
     let termination;
     // The lowest RMS so far and the last iteration that improved on E or RMS (5.4).
     let mut best_rms = f32::INFINITY;
     let mut last_improvement = 1;
+    let mut iteration = 0;
     loop {
-        let iteration = per_iteration.len() + 1;
+        iteration += 1;
         let mut timings = Timings::default();
         let clock = Instant::now();
         let implicit = solve(&grid, &constraints, options.kernel)?;
@@ -181,12 +266,19 @@ pub fn fit(
         let metrics = measured.metrics;
         timings.total = timings.signed_distance + timings.implicit_evaluation + timings.misc;
         let counts = ConstraintCounts::of_values(constraints.iter().map(|c| c.value));
-        let line = IterationReport::new(iteration, counts, metrics, timings);
+        let number = log.per_iteration.len() + 1;
+        let line = IterationReport::new(
+            number,
+            counts,
+            metrics.in_smaller_voxels(level.voxel_scale()),
+            timings,
+        )
+        .at(level);
         on_iteration(&line, &implicit);
-        per_iteration.push(line);
-        add_timings(&mut totals, &timings);
-        if best.as_ref().is_none_or(|(_, b, _)| better(&metrics, b)) {
-            best = Some((implicit, metrics, iteration));
+        log.per_iteration.push(line);
+        add_timings(&mut log.totals, &timings);
+        if best.as_ref().is_none_or(|(_, b, _, _)| better(&metrics, b)) {
+            best = Some((implicit, metrics, iteration, constraints.len()));
         }
         if metrics.rms_error_subvoxel < best_rms * (1.0 - options.min_rms_improvement) {
             last_improvement = iteration;
@@ -211,35 +303,17 @@ pub fn fit(
             options,
         );
         added.truncate(added_limit(constraints.len(), options));
-        totals.misc += clock.elapsed().as_secs_f64();
+        log.totals.misc += clock.elapsed().as_secs_f64();
         if added.is_empty() {
             termination = "no candidate survived pruning".to_string();
             break;
         }
         constraints.extend(added);
     }
-    let (implicit, metrics, best_iteration) = best.expect("the loop runs at least once");
-    totals.total = started.elapsed().as_secs_f64();
-    let kept = &per_iteration[best_iteration - 1];
-    let report = FitReport {
-        method: "iterative".into(),
-        iterations: per_iteration.len(),
-        best_iteration,
-        termination,
-        constraints: kept.constraints,
-        max_error_voxels: metrics.max_error,
-        max_error: f64::from(metrics.max_error) * grid.voxel_size,
-        weighted_error: metrics.weighted_error,
-        rms_error_voxels: metrics.rms_error,
-        timings_s: totals,
-        dims: grid.dims,
-        origin: grid.origin,
-        voxel_size: grid.voxel_size,
-        per_iteration,
-        model_bytes: None,
-        mesh_bytes: None,
-    };
-    Ok(Fit { implicit, report })
+    let (implicit, metrics, best_iteration, count) = best.expect("the loop runs at least once");
+    // Constraints are only ever appended: the best model's are the first `count`.
+    constraints.truncate(count);
+    Ok(Stage { implicit, metrics, best_iteration, termination, constraints })
 }
 
 /// Evaluates `implicit` over the goal's grid (5.2) and measures it against the goal (4.3).

@@ -53,11 +53,35 @@ pub struct Timings {
     pub total: f64,
 }
 
+/// The grid an iteration ran on.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GridLevel {
+    /// The fit's grid.
+    #[default]
+    Full,
+    /// Half its resolution (the coarse start): voxels twice the size.
+    Half,
+}
+
+impl GridLevel {
+    /// The side of this level's voxels, in voxels of the full grid.
+    pub fn voxel_scale(self) -> f32 {
+        match self {
+            GridLevel::Full => 1.0,
+            GridLevel::Half => 2.0,
+        }
+    }
+}
+
 /// The figures of one iteration.
 #[derive(Debug, Clone, Serialize)]
 pub struct IterationReport {
     /// 1 for the model of the initial constraints.
     pub iteration: usize,
+    /// The grid the model was measured on. Errors are in voxels of the full grid whatever the
+    /// level: those measured at half the resolution are twice their value in its own voxels.
+    pub grid: GridLevel,
     /// The model's constraints.
     pub constraints: ConstraintCounts,
     /// E, in voxels.
@@ -84,6 +108,7 @@ impl IterationReport {
     ) -> Self {
         IterationReport {
             iteration,
+            grid: GridLevel::Full,
             constraints,
             max_error_voxels: metrics.max_error,
             weighted_error: metrics.weighted_error,
@@ -94,10 +119,17 @@ impl IterationReport {
         }
     }
 
-    /// One line for the terminal: iteration, constraints, E, Ew, RMS, time.
+    /// This report, of an iteration on the grid `grid`.
+    pub fn at(self, grid: GridLevel) -> Self {
+        IterationReport { grid, ..self }
+    }
+
+    /// One line for the terminal: iteration, constraints, E, Ew, RMS, time, and the grid if it
+    /// is not the full one.
     pub fn line(&self) -> String {
+        let grid = if self.grid == GridLevel::Half { "  (half resolution)" } else { "" };
         format!(
-            "iteration {:>3}  constraints {:>5} ({} zero, {} in, {} out)  E {:>6.2} ({:.2})  Ew {:>6.3}  RMS {:>6.3} ({:.3})  {:>6.2} s",
+            "iteration {:>3}  constraints {:>5} ({} zero, {} in, {} out)  E {:>6.2} ({:.2})  Ew {:>6.3}  RMS {:>6.3} ({:.3})  {:>6.2} s{grid}",
             self.iteration,
             self.constraints.total(),
             self.constraints.boundary,
