@@ -88,7 +88,7 @@ fn grids_at_128(flags: &[&str]) -> Vec<String> {
 
 #[test]
 fn a_large_grid_starts_at_half_the_resolution_unless_told_not_to() {
-    assert_eq!(grids_at_128(&[]), ["half", "half", "full"]);
+    assert_eq!(grids_at_128(&[]), ["half", "full", "full"]);
     assert_eq!(grids_at_128(&["--full-resolution"]), ["full", "full", "full"]);
 }
 

@@ -45,12 +45,12 @@ impl CoarseStart {
     }
 
     /// The options of the loop at half the resolution: its target is the coarse start's, in
-    /// its own voxels, and it leaves at least one iteration to the full grid.
+    /// its own voxels, and it leaves at least half the iterations to the full grid.
     pub fn options(&self, options: &FitOptions) -> FitOptions {
         let target = options.coarse_target_error.max(options.target_error);
         FitOptions {
             target_error: target / 2.0,
-            max_iterations: options.max_iterations - 1,
+            max_iterations: options.max_iterations / 2,
             ..options.clone()
         }
     }

@@ -62,6 +62,9 @@ pub struct FitOptions {
     /// A candidate whose weighted error is below this is pruned (paper: 0.125), unless its
     /// voxel error is above `target_error` (see `refine.rs`).
     pub min_weighted_error: f32,
+    /// Where some candidates' voxel errors are above `target_error`, only those are added
+    /// (paper: every candidate that survives pruning, which `false` restores; see `refine.rs`).
+    pub only_above_target: bool,
     /// A candidate from the current surface whose error is at most this (voxels) becomes a
     /// boundary constraint at the nearest point of the goal's surface instead of a soft
     /// constraint, where that point is found (paper: soft constraints only, which 0 restores;
@@ -97,8 +100,8 @@ pub struct FitOptions {
     /// and has at least this many voxels along its longest axis; `usize::MAX` never does.
     pub coarse_start_min_axis: usize,
     /// The start at half the resolution hands over to the full grid once its E is at most
-    /// this, in voxels of the full grid (or `target_error`, if larger). 4 voxels is the paper's
-    /// error on its bunny.
+    /// this, in voxels of the full grid (or `target_error`, if larger): 3 voxels of the full
+    /// grid are 1.5 of its own, a step E can reach there (√4 - 1/2).
     pub coarse_target_error: f32,
     /// The radial basis function.
     pub kernel: Kernel,
@@ -117,6 +120,7 @@ impl Default for FitOptions {
             min_constraint_spacing: 2.0,
             error_fraction: 0.5,
             min_weighted_error: 0.125,
+            only_above_target: true,
             snap_distance: 3.0,
             target_error: 2.0,
             target_weighted_error: 0.0,
@@ -126,7 +130,7 @@ impl Default for FitOptions {
             max_constraints: 2000,
             max_growth: 0.1,
             coarse_start_min_axis: 128,
-            coarse_target_error: 4.0,
+            coarse_target_error: 3.0,
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
         }
