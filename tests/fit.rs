@@ -226,7 +226,7 @@ fn a_large_grid_starts_at_half_the_resolution() {
         })
         .unwrap();
     assert_eq!(report.per_iteration[half].constraints.total(), best.constraints.total());
-    // Half-resolution errors are in full-grid voxels: the coarse end is near the target of 4.
+    // Half-resolution errors are in full-grid voxels: the coarse end is near the target of 3.
     assert!(coarse.last().unwrap().max_error_voxels <= 2.0 * 2.5);
     assert!(coarse[0].max_error_voxels > report.max_error_voxels);
 

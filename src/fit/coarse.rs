@@ -5,9 +5,10 @@
 //! surface's signed distance are linear in the number of voxels. The early ones, whose E is
 //! tens of voxels, ask questions that a grid of half the resolution answers as well, for an
 //! eighth of the cost. So when the grid is large, the loop first runs on the goal at half the
-//! resolution (initialization of 5.1 included) until E there is at most
-//! `coarse_target_error`, then the constraints of its best model, moved to the full grid, are
-//! where the loop at full resolution starts, in place of the initialization.
+//! resolution (initialization of 5.1 included) until E there is at most `coarse_target_error`
+//! or three quarters of the iteration limit are used; then the constraints of its best model,
+//! moved to the full grid, are where the loop at full resolution starts, in place of the
+//! initialization.
 //!
 //! The half-resolution goal is made from the goal's own densities: each coarse voxel averages a
 //! 2 x 2 x 2 block of voxels, which is the density a voxelization at half the resolution with
@@ -45,12 +46,13 @@ impl CoarseStart {
     }
 
     /// The options of the loop at half the resolution: its target is the coarse start's, in
-    /// its own voxels, and it leaves at least half the iterations to the full grid.
+    /// its own voxels, and it leaves at least a quarter of the iterations to the full grid (an
+    /// iteration at half the resolution costs about an eighth of one on the full grid).
     pub fn options(&self, options: &FitOptions) -> FitOptions {
         let target = options.coarse_target_error.max(options.target_error);
         FitOptions {
             target_error: target / 2.0,
-            max_iterations: options.max_iterations / 2,
+            max_iterations: options.max_iterations * 3 / 4,
             ..options.clone()
         }
     }
