@@ -42,7 +42,7 @@
 //! each iteration adds a tenth of the model elsewhere. On the bunny E stayed at 2.33 for six
 //! iterations, from 949 to 1,497 constraints. With this rule (and the coarse start handing over
 //! at 3 voxels rather than 4) the defaults reach E 1.95 on the bunny, horse and triceratops with
-//! 710, 631 and 482 constraints on average over seeds 1 to 4, against 1,347, 1,022 and 766
+//! 700, 644 and 478 constraints on average over seeds 1 to 4, against 1,347, 1,022 and 766
 //! before. Early in a fit every candidate is above the target (its error is at least half of
 //! E), so the rule changes nothing there.
 
