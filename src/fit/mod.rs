@@ -103,6 +103,9 @@ pub struct FitOptions {
     /// this, in voxels of the full grid (or `target_error`, if larger): 3 voxels of the full
     /// grid are 1.5 of its own, a step E can reach there (√4 - 1/2).
     pub coarse_target_error: f32,
+    /// `max_growth` at half the resolution: an iteration there costs about an eighth of one on
+    /// the full grid, so it can afford to add more at once and let the next one correct it.
+    pub coarse_max_growth: f64,
     /// The radial basis function.
     pub kernel: Kernel,
     /// How radii of regularity are measured.
@@ -131,6 +134,7 @@ impl Default for FitOptions {
             max_growth: 0.1,
             coarse_start_min_axis: 128,
             coarse_target_error: 3.0,
+            coarse_max_growth: 0.2,
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
         }
