@@ -46,8 +46,9 @@ impl CoarseStart {
     }
 
     /// The options of the loop at half the resolution: its target is the coarse start's, in
-    /// its own voxels, its growth per iteration the coarse start's, and it leaves at least a quarter of the iterations to the full grid (an
-    /// iteration at half the resolution costs about an eighth of one on the full grid).
+    /// its own voxels, its growth per iteration the coarse start's, and it leaves at least a
+    /// quarter of the iterations to the full grid (an iteration at half the resolution costs
+    /// about an eighth of one on the full grid).
     pub fn options(&self, options: &FitOptions) -> FitOptions {
         let target = options.coarse_target_error.max(options.target_error);
         FitOptions {

@@ -43,8 +43,9 @@
 //! iterations, from 949 to 1,497 constraints. With this rule (and the coarse start handing over
 //! at 3 voxels rather than 4) the defaults reach E 1.95 on the bunny, horse and triceratops with
 //! 700, 644 and 478 constraints on average over seeds 1 to 4, against 1,347, 1,022 and 766
-//! before (both with the coarse start growing by 10% per iteration). Early in a fit every candidate is above the target (its error is at least half of
-//! E), so the rule changes nothing there.
+//! before (both with the coarse start growing by 10% per iteration). Early in a fit every
+//! candidate is above the target (its error is at least half of E), so the rule changes nothing
+//! there.
 
 use super::{FitConstraint, FitOptions, Goal};
 use crate::metrics::BoundaryErrors;
