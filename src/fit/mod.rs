@@ -36,7 +36,7 @@ use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions, SubV
 use crate::rbf::{self, Implicit, Kernel};
 
 pub use goal::Goal;
-pub use report::{ConstraintCounts, FitReport, GridLevel, IterationReport, Timings};
+pub use report::{ConstraintCounts, FitReport, GridLevel, IterationReport, Termination, Timings};
 
 /// Every threshold of the fit, with the paper's values as defaults where the paper gives one.
 #[derive(Debug, Clone, PartialEq)]
@@ -241,7 +241,7 @@ struct Stage {
     metrics: ErrorMetrics,
     /// The best model's iteration, counted from the stage's first.
     best_iteration: usize,
-    termination: String,
+    termination: Termination,
     /// The constraints of the best model.
     constraints: Vec<FitConstraint>,
 }
@@ -264,11 +264,14 @@ fn iterate(
     let mut best_rms = f32::INFINITY;
     let mut last_improvement = 1;
     let mut iteration = 0;
+    // The last model, whose weights start the next solve where it is iterative.
+    let mut previous: Option<Implicit> = None;
     loop {
         iteration += 1;
         let mut timings = Timings::default();
         let clock = Instant::now();
-        let implicit = solve(&grid, &constraints, options.kernel)?;
+        let implicit = solve(&grid, &constraints, options.kernel, previous.as_ref())?;
+        previous = Some(implicit.clone());
         timings.misc += clock.elapsed().as_secs_f64();
         let measured = measure(goal, &implicit, options, &mut timings);
         let metrics = measured.metrics;
@@ -313,7 +316,7 @@ fn iterate(
         added.truncate(added_limit(constraints.len(), options));
         log.totals.misc += clock.elapsed().as_secs_f64();
         if added.is_empty() {
-            termination = "no candidate survived pruning".to_string();
+            termination = Termination::NoCandidate;
             break;
         }
         constraints.extend(added);
@@ -407,8 +410,14 @@ fn current_signed_distance(values: &Volume<f32>) -> Volume<f32> {
     distance::signed_distance(&inside)
 }
 
-/// Solves for the implicit function through `constraints`, in mesh units.
-pub fn solve(grid: &Grid, constraints: &[FitConstraint], kernel: Kernel) -> Result<Implicit> {
+/// Solves for the implicit function through `constraints`, in mesh units, started from
+/// `start` (see [`Implicit::solve_from`]) where the constraints extend its own.
+pub fn solve(
+    grid: &Grid,
+    constraints: &[FitConstraint],
+    kernel: Kernel,
+    start: Option<&Implicit>,
+) -> Result<Implicit> {
     let dim = if grid.is_2d() { 2 } else { 3 };
     let rbf_constraints: Vec<rbf::Constraint> = constraints
         .iter()
@@ -417,7 +426,7 @@ pub fn solve(grid: &Grid, constraints: &[FitConstraint], kernel: Kernel) -> Resu
             rbf::Constraint::new(&p.to_array()[..dim], c.value * grid.voxel_size)
         })
         .collect();
-    Implicit::solve(dim, kernel, &rbf_constraints)
+    Implicit::solve_from(dim, kernel, &rbf_constraints, start)
 }
 
 /// How many constraints one iteration may add to `count` (see [`FitOptions::max_growth`]).
@@ -439,17 +448,17 @@ fn stop_reason(
     last_improvement: usize,
     constraint_count: usize,
     options: &FitOptions,
-) -> Option<String> {
+) -> Option<Termination> {
     if metrics.max_error <= options.target_error {
-        Some(format!("E reached the target of {} voxels", options.target_error))
+        Some(Termination::TargetError { target: options.target_error })
     } else if metrics.weighted_error <= options.target_weighted_error {
-        Some(format!("Ew reached the target of {}", options.target_weighted_error))
+        Some(Termination::TargetWeightedError { target: options.target_weighted_error })
     } else if iteration >= last_improvement + options.patience {
-        Some(format!("no improvement in E or RMS over {} iterations", options.patience))
+        Some(Termination::NoImprovement { patience: options.patience })
     } else if iteration >= options.max_iterations {
-        Some(format!("reached the limit of {} iterations", options.max_iterations))
+        Some(Termination::IterationLimit { limit: options.max_iterations })
     } else if constraint_count >= options.max_constraints {
-        Some(format!("reached the limit of {} constraints", options.max_constraints))
+        Some(Termination::ConstraintLimit { limit: options.max_constraints })
     } else {
         None
     }
@@ -473,8 +482,11 @@ mod tests {
         let metrics = ErrorMetrics { max_error: 5.0, weighted_error: 1.0, ..Default::default() };
         let stop = |iteration, last| stop_reason(&metrics, iteration, last, 100, &options);
         assert_eq!(stop(10, 7), None);
-        assert!(stop(10, 6).is_some_and(|r| r.contains("no improvement")));
+        assert_eq!(stop(10, 6), Some(Termination::NoImprovement { patience: 4 }));
         let accurate = ErrorMetrics { max_error: 0.4, ..metrics };
-        assert!(stop_reason(&accurate, 2, 2, 100, &options).is_some_and(|r| r.contains("target")));
+        assert_eq!(
+            stop_reason(&accurate, 2, 2, 100, &options),
+            Some(Termination::TargetError { target: 2.0 })
+        );
     }
 }

@@ -13,7 +13,7 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-use super::{FitConstraint, FitOptions, FitReport, Goal, IterationReport, Timings};
+use super::{FitConstraint, FitOptions, FitReport, Goal, IterationReport, Termination, Timings};
 use crate::distance;
 use crate::error::Result;
 use crate::geometry::DVec3;
@@ -29,7 +29,7 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
     let constraints = naive_constraints(mesh, goal, options);
     let mut timings = Timings::default();
     let clock = Instant::now();
-    let implicit = super::solve(&grid, &constraints, options.kernel)?;
+    let implicit = super::solve(&grid, &constraints, options.kernel, None)?;
     timings.misc += clock.elapsed().as_secs_f64();
     let measured = super::measure(goal, &implicit, options, &mut timings);
     timings.total = started.elapsed().as_secs_f64();
@@ -39,7 +39,7 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
         method: "naive".into(),
         iterations: 1,
         best_iteration: 1,
-        termination: "the naive method solves once".into(),
+        termination: Termination::SingleSolve,
         constraints: counts,
         max_error_voxels: metrics.max_error,
         max_error: f64::from(metrics.max_error) * grid.voxel_size,

@@ -145,6 +145,66 @@ impl IterationReport {
     }
 }
 
+/// Why a fit stopped (paper 5.4), written in reports as `{"reason": "target_error", ...}`
+/// with the limit that was reached.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum Termination {
+    /// E reached the target (voxels).
+    TargetError {
+        /// The target E, voxels.
+        target: f32,
+    },
+    /// Ew reached the target.
+    TargetWeightedError {
+        /// The target Ew.
+        target: f32,
+    },
+    /// No model improved on the best E or the lowest RMS error for `patience` iterations.
+    NoImprovement {
+        /// Iterations without improvement.
+        patience: usize,
+    },
+    /// The iteration limit was reached.
+    IterationLimit {
+        /// The limit.
+        limit: usize,
+    },
+    /// The constraint limit was reached.
+    ConstraintLimit {
+        /// The limit.
+        limit: usize,
+    },
+    /// Every candidate was pruned: nothing was left to add.
+    NoCandidate,
+    /// The naive method (paper 3.2) solves once.
+    SingleSolve,
+}
+
+impl std::fmt::Display for Termination {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Termination::TargetError { target } => {
+                write!(f, "E reached the target of {target} voxels")
+            }
+            Termination::TargetWeightedError { target } => {
+                write!(f, "Ew reached the target of {target}")
+            }
+            Termination::NoImprovement { patience } => {
+                write!(f, "no improvement in E or RMS over {patience} iterations")
+            }
+            Termination::IterationLimit { limit } => {
+                write!(f, "reached the limit of {limit} iterations (--max-iterations)")
+            }
+            Termination::ConstraintLimit { limit } => {
+                write!(f, "reached the limit of {limit} constraints (--max-constraints)")
+            }
+            Termination::NoCandidate => f.write_str("no candidate survived pruning"),
+            Termination::SingleSolve => f.write_str("the naive method solves once"),
+        }
+    }
+}
+
 /// The whole fit's report (written as JSON by `implicitize fit --report`).
 #[derive(Debug, Clone, Serialize)]
 pub struct FitReport {
@@ -155,7 +215,7 @@ pub struct FitReport {
     /// The iteration whose model was kept (the best by E, then by RMS).
     pub best_iteration: usize,
     /// Why the loop stopped.
-    pub termination: String,
+    pub termination: Termination,
     /// The kept model's constraints.
     pub constraints: ConstraintCounts,
     /// The kept model's E, in voxels.
@@ -214,6 +274,11 @@ impl FitReport {
             s,
             "{:<14} {:<16} {:>15.2} {:>20.2} {:>10.2} {:>9.2}",
             name, volume, t.signed_distance, t.implicit_evaluation, t.misc, t.total
+        );
+        let _ = writeln!(
+            s,
+            "stopped: {}; kept iteration {} of {}",
+            self.termination, self.best_iteration, self.iterations
         );
         s
     }

@@ -394,6 +394,55 @@ fn values_dim_f32<const D: usize>(
     )
 }
 
+/// The radial sums `sum_j d_j phi(|x_i - c_j|)` of `weights` at the centres `centres` (both
+/// normalized, one axis after another) for the points `points` (normalized, one axis after
+/// another, `points.len() / dim` of them): the matrix-vector product of the iterative solve,
+/// by the same vectorized loops as evaluation, in parallel over blocks of points.
+pub(super) fn radial_sums(
+    dim: usize,
+    kernel: Kernel,
+    centres: &[f64],
+    weights: &[f64],
+    points: &[f64],
+) -> Vec<f64> {
+    match (dim, kernel) {
+        (2, Kernel::ThinPlate) => radial_sums_dim::<2, ThinPlate>(centres, weights, points),
+        (2, Kernel::Cubic) => radial_sums_dim::<2, Cubic>(centres, weights, points),
+        (2, Kernel::Linear) => radial_sums_dim::<2, Linear>(centres, weights, points),
+        (3, Kernel::ThinPlate) => radial_sums_dim::<3, ThinPlate>(centres, weights, points),
+        (3, Kernel::Cubic) => radial_sums_dim::<3, Cubic>(centres, weights, points),
+        (3, Kernel::Linear) => radial_sums_dim::<3, Linear>(centres, weights, points),
+        (_, Kernel::ThinPlate) => radial_sums_dim::<4, ThinPlate>(centres, weights, points),
+        (_, Kernel::Cubic) => radial_sums_dim::<4, Cubic>(centres, weights, points),
+        (_, Kernel::Linear) => radial_sums_dim::<4, Linear>(centres, weights, points),
+    }
+}
+
+fn radial_sums_dim<const D: usize, K: Phi>(
+    centres: &[f64],
+    weights: &[f64],
+    points: &[f64],
+) -> Vec<f64> {
+    let isa = Isa::detect();
+    let m = points.len() / D;
+    let scaled: Vec<f64> = weights.iter().map(|d| d * K::WEIGHT_SCALE).collect();
+    let sources = Centres { centres, weights: &scaled };
+    let mut out = vec![0.0; m];
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(chunk, out)| {
+        let start = chunk * CHUNK;
+        let padded = out.len().div_ceil(LANES) * LANES;
+        let block: [Vec<f64>; D] = std::array::from_fn(|a| {
+            let mut axis = points[a * m + start..a * m + start + out.len()].to_vec();
+            axis.resize(padded, 0.0);
+            axis
+        });
+        let mut sums = vec![0.0; padded];
+        dispatch::<D, K>(isa, &sources, &block, &mut sums);
+        out.copy_from_slice(&sums[..out.len()]);
+    });
+    out
+}
+
 /// Fills the kernel block of the interpolation matrix, `phi(|c_i - c_j|)` for the `n`
 /// normalized `centres` (one axis after another), into the first `n` entries of each of the
 /// first `n` columns of `columns` (column-major, `stride` entries a column), with the same

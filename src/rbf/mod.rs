@@ -19,9 +19,10 @@
 //! runtime parameter (2, 3 or 4) and the hot loops are specialized for each by const generics.
 //!
 //! ## Guarantees
-//! * The solve is exact (a dense factorization in f64, by the null-space method and Cholesky,
-//!   refined),
-//!   and checked: [`Implicit::solve`] reports the largest interpolation residual relative to the
+//! * Up to [`DIRECT_MAX`] constraints the solve is exact (a dense factorization in f64, by the
+//!   null-space method and Cholesky, refined); above, it is iterative (FGMRES with a domain
+//!   decomposition preconditioner, `rbf/iterative.rs`), to a residual of at most `1e-8` of the
+//!   largest |value|, in `O(n)` memory. Either way it is checked: [`Implicit::solve`] reports the largest interpolation residual relative to the
 //!   largest |value| and refuses a system whose residual shows it is numerically singular.
 //!   Coincident or nearly coincident constraints, too few affinely independent positions for
 //!   the polynomial, and NaN or infinite input are errors, never a silent garbage model.
@@ -53,7 +54,10 @@
 
 mod csv;
 mod evaluate;
+mod gmres;
 mod grid;
+mod iterative;
+mod schwarz;
 mod solve;
 
 use serde::{Deserialize, Serialize};
@@ -64,7 +68,7 @@ use crate::geometry::DVec3;
 
 pub use csv::{read_constraints, read_points};
 pub use grid::evaluate_on_grid;
-pub use solve::{MAX_RESIDUAL, MIN_SEPARATION};
+pub use solve::{DIRECT_MAX, MAX_RESIDUAL, MIN_SEPARATION};
 
 /// The radial basis function `phi(r)` of a variational implicit function.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
