@@ -34,9 +34,10 @@ pub struct LoopArgs {
     /// are corrected however flat the surface is there.
     #[arg(long, default_value_t = FitOptions::default().target_error)]
     pub target_error: f32,
-    /// Never use more constraints than this.
-    #[arg(long, default_value_t = FitOptions::default().max_constraints)]
-    pub max_constraints: usize,
+    /// Never use more constraints than this [default: 50000; 2000 with --method naive, which
+    /// uses half of them as mesh vertices]
+    #[arg(long)]
+    pub max_constraints: Option<usize>,
 }
 
 impl LoopArgs {
@@ -46,7 +47,7 @@ impl LoopArgs {
             seed: self.seed,
             max_iterations: self.max_iterations,
             target_error: self.target_error,
-            max_constraints: self.max_constraints,
+            max_constraints: self.max_constraints.unwrap_or(FitOptions::default().max_constraints),
             ..FitOptions::default()
         }
     }
@@ -70,7 +71,10 @@ pub struct FitArgs {
 
 impl FitArgs {
     fn options(&self) -> FitOptions {
-        let options = self.settings.options();
+        let mut options = self.settings.options();
+        if self.method == Method::Naive && self.settings.max_constraints.is_none() {
+            options.max_constraints = fit::naive::DEFAULT_CONSTRAINTS;
+        }
         if self.full_resolution {
             FitOptions { coarse_start_min_axis: usize::MAX, ..options }
         } else {

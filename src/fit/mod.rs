@@ -88,7 +88,10 @@ pub struct FitOptions {
     pub min_rms_improvement: f32,
     /// Stop after this many iterations.
     pub max_iterations: usize,
-    /// Never add constraints beyond this many in all.
+    /// Never add constraints beyond this many in all. A safety limit, far above what the
+    /// paper's models need at E 2 (500 to 800), that a fit reaching it reports
+    /// ([`Termination::ConstraintLimit`]): the solve scales (iteratively above
+    /// [`rbf::DIRECT_MAX`] constraints), so the target E decides the count.
     pub max_constraints: usize,
     /// At most this fraction of the current count is added in one iteration (at least
     /// `initial_constraints / 2`), greatest error first. The paper adds every candidate that
@@ -130,7 +133,7 @@ impl Default for FitOptions {
             patience: 4,
             min_rms_improvement: 0.01,
             max_iterations: 40,
-            max_constraints: 2000,
+            max_constraints: 50_000,
             max_growth: 0.1,
             coarse_start_min_axis: 128,
             coarse_target_error: 3.0,

@@ -47,7 +47,10 @@
 //! candidate is above the target (its error is at least half of E), so the rule changes nothing
 //! there.
 
+use std::collections::HashMap;
+
 use super::{FitConstraint, FitOptions, Goal};
+use crate::geometry::DVec3;
 use crate::metrics::BoundaryErrors;
 
 /// A candidate constraint with the errors that rank and prune it.
@@ -142,29 +145,82 @@ fn select(
     existing: &[FitConstraint],
     options: &FitOptions,
 ) -> Vec<FitConstraint> {
+    let Some(first) = candidates.first() else {
+        return Vec::new();
+    };
+    // An added constraint keeps candidates within `added_spacing_factor` times its error, and no
+    // error exceeds the first (greatest) candidate's.
+    let reach = (options.added_spacing_factor * f64::from(first.constraint.error)).max(1e-9);
+    let mut added_cells = Cells::new(reach);
+    let existing_cells = Cells::of(
+        options.min_constraint_spacing.max(1e-9),
+        existing.iter().map(|e| (e.position, e.error)),
+    );
     let mut added: Vec<FitConstraint> = Vec::new();
     for candidate in candidates {
         let c = candidate.constraint;
-        let near_added = added.iter().any(|a| {
-            a.position.distance(c.position) < options.added_spacing_factor * f64::from(a.error)
+        let near_added = added_cells.near(c.position).any(|(p, error)| {
+            p.distance(c.position) < options.added_spacing_factor * f64::from(error)
         });
         if near_added {
             continue;
         }
-        let near_existing = existing
-            .iter()
-            .any(|e| e.position.distance(c.position) < options.min_constraint_spacing);
+        let near_existing = existing_cells
+            .near(c.position)
+            .any(|(p, _)| p.distance(c.position) < options.min_constraint_spacing);
         if !near_existing {
+            added_cells.insert(c.position, c.error);
             added.push(c);
         }
     }
     added
 }
 
+/// Positions (with the error of their constraint) hashed into cubic cells, so that those
+/// within one cell's side of a point are found among the 27 cells around it: the distance rules
+/// cost in proportion to the candidates, not candidates times constraints.
+struct Cells {
+    side: f64,
+    cells: HashMap<[i64; 3], Vec<(DVec3, f32)>>,
+}
+
+impl Cells {
+    fn new(side: f64) -> Cells {
+        Cells { side, cells: HashMap::new() }
+    }
+
+    fn of(side: f64, items: impl Iterator<Item = (DVec3, f32)>) -> Cells {
+        let mut cells = Cells::new(side);
+        for (p, error) in items {
+            cells.insert(p, error);
+        }
+        cells
+    }
+
+    fn key(&self, p: DVec3) -> [i64; 3] {
+        [p.x, p.y, p.z].map(|v| (v / self.side).floor() as i64)
+    }
+
+    fn insert(&mut self, p: DVec3, error: f32) {
+        self.cells.entry(self.key(p)).or_default().push((p, error));
+    }
+
+    /// Every item in the 27 cells around `p`: all those within `side` of it, and some more.
+    fn near(&self, p: DVec3) -> impl Iterator<Item = (DVec3, f32)> + '_ {
+        let [i, j, k] = self.key(p);
+        (-1..=1)
+            .flat_map(move |a| {
+                (-1..=1).flat_map(move |b| (-1..=1).map(move |c| [i + a, j + b, k + c]))
+            })
+            .filter_map(|key| self.cells.get(&key))
+            .flatten()
+            .copied()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::DVec3;
     use crate::grid::{Grid, Volume};
     use crate::metrics::RegularityOptions;
 
@@ -228,5 +284,45 @@ mod tests {
         assert_eq!(added(2.33, 2.0), 1);
         assert_eq!(added(1.95, 2.0), 0);
         assert_eq!(added(2.33, 2.5), 0);
+    }
+
+    /// The hashed distance rules keep exactly the candidates that checking every pair keeps.
+    #[test]
+    fn the_distance_rules_match_a_check_of_every_pair() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut point = |scale: f64| {
+            DVec3::new(rng.random::<f64>(), rng.random::<f64>(), rng.random::<f64>()) * scale
+        };
+        let existing: Vec<FitConstraint> = (0..300)
+            .map(|_| FitConstraint { position: point(30.0), value: 0.0, error: 0.0 })
+            .collect();
+        let mut candidates: Vec<Candidate> = (0..2000)
+            .map(|k| Candidate {
+                constraint: FitConstraint {
+                    position: point(30.0),
+                    value: 0.0,
+                    error: 0.5 + (k % 37) as f32 * 0.1,
+                },
+                weighted_error: 1.0,
+                above_target: true,
+            })
+            .collect();
+        candidates.sort_by(|a, b| b.constraint.error.total_cmp(&a.constraint.error));
+        let options = FitOptions::default();
+        let mut expected: Vec<FitConstraint> = Vec::new();
+        for c in candidates.iter().map(|c| c.constraint) {
+            let near_added = expected.iter().any(|a| {
+                a.position.distance(c.position) < options.added_spacing_factor * f64::from(a.error)
+            });
+            let near_existing = existing
+                .iter()
+                .any(|e| e.position.distance(c.position) < options.min_constraint_spacing);
+            if !near_added && !near_existing {
+                expected.push(c);
+            }
+        }
+        assert!(expected.len() > 10);
+        assert_eq!(select(&candidates, &existing, &options), expected);
     }
 }
