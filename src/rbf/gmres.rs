@@ -8,6 +8,8 @@
 //!
 //! Arnoldi by modified Gram-Schmidt, the small least-squares problem by Givens rotations; the
 //! residual norm it tracks is checked against the true residual at every restart and at the end.
+//! A run ends at the tolerance, at the iteration limit, or when a whole cycle fails to halve
+//! the true residual (the floor set by rounding in the products, on ill-conditioned systems).
 
 /// What a run of [`fgmres`] achieved.
 #[derive(Debug, Clone, PartialEq)]
@@ -21,6 +23,9 @@ pub(super) struct Outcome {
     /// The true residual's Euclidean norm at `x`.
     pub residual: f64,
 }
+
+/// A restart that leaves the true residual above this fraction of the last one ends the run.
+const STALL: f64 = 0.5;
 
 /// The limits of a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,14 +50,23 @@ pub(super) fn fgmres(
     let mut x = x0;
     let mut products = 0;
     let mut iterations = 0;
+    let mut last = f64::INFINITY;
     loop {
         let r = residual(&matrix, b, &x);
         products += 1;
         let beta = norm(&r);
-        if !beta.is_finite() || beta <= limits.tolerance || iterations >= limits.max_iterations {
+        // A cycle that did not halve the true residual has reached the floor that rounding in
+        // the products sets: more cycles would only repeat it.
+        let stalled = beta > STALL * last;
+        if !beta.is_finite()
+            || beta <= limits.tolerance
+            || iterations >= limits.max_iterations
+            || stalled
+        {
             let converged = beta <= limits.tolerance;
             return Outcome { x, converged, products, residual: beta };
         }
+        last = beta;
         let steps = limits.restart.min(limits.max_iterations - iterations);
         let cycle = arnoldi_cycle(&matrix, &precondition, r, beta, steps, limits.tolerance);
         iterations += cycle.directions.len();
