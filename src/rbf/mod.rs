@@ -55,6 +55,7 @@ mod csv;
 mod evaluate;
 mod grid;
 mod solve;
+mod treecode;
 
 use serde::{Deserialize, Serialize};
 
