@@ -289,6 +289,15 @@ pub(super) fn values(
     values_with(Isa::detect(), Summation::Auto, implicit, count, point)
 }
 
+/// [`values`] by the direct sum, whatever the number of centres and points.
+pub(super) fn values_exact(
+    implicit: &Implicit,
+    count: usize,
+    point: impl Fn(usize, &mut [f64]) + Sync,
+) -> Vec<f64> {
+    values_with(Isa::detect(), Summation::Direct, implicit, count, point)
+}
+
 /// [`values`] with the instruction set (it must be supported) and summation chosen by the
 /// caller.
 pub(super) fn values_with(
