@@ -203,7 +203,7 @@ impl Bounds {
     }
 }
 
-/// A node of an octree: a range of the sorted points and its children's indices.
+/// A node of a tree: a range of the sorted points and its children's indices.
 #[derive(Debug, Clone)]
 struct Node {
     start: usize,
@@ -228,7 +228,8 @@ impl Node {
     }
 }
 
-/// An octree over points sorted along a Morton curve.
+/// A kd-tree over points sorted along a Morton curve: each node is split in two by the next
+/// bit of the keys.
 struct Tree {
     /// The points, sorted, per axis.
     axes: [Vec<f64>; 3],
