@@ -47,10 +47,11 @@
 //! centres at 100,000 points 8.5 s vs 7.3 s, at 1,000,000 points 82.7 s vs 23.1 s (the direct
 //! sums timed on 20,000 of the points and scaled). The criterion bench (benches/rbf.rs,
 //! `treecode`): 5,000 centres at 200,000 points 3.24 s direct vs 2.30 s; 20,000 at 1,000,000
-//! 18.6 s by the treecode (the machine's load was near 9 throughout). [`pays`] therefore asks for at least 5,000 centres and 200,000 points. Only three-dimensional
-//! functions are summed this way (two and four dimensions keep the direct sum). The result
-//! depends only on the centres, weights and points, never on the number of threads: every list
-//! is gathered and summed in a fixed order.
+//! 18.6 s by the treecode (the machine's load was near 9 throughout). [`pays`] therefore asks
+//! for at least 5,000 centres and 200,000 points. Only three-dimensional functions are summed
+//! this way (two and four dimensions keep the direct sum). The result depends only on the
+//! centres, weights and points, never on the number of threads: every list is gathered and
+//! summed in a fixed order.
 
 use rayon::prelude::*;
 
