@@ -28,7 +28,7 @@
 
 use rayon::prelude::*;
 
-use super::{Implicit, Kernel};
+use super::{Implicit, Kernel, treecode};
 
 #[cfg(target_arch = "x86_64")]
 mod thin_plate_avx512;
@@ -42,7 +42,7 @@ const CHUNK: usize = 512;
 
 /// Multiply-add: fused where the CPU has FMA, separate otherwise (a libm call per operation
 /// would be slower than both).
-trait Arith {
+pub(super) trait Arith {
     fn mul_add(a: f64, b: f64, c: f64) -> f64;
 }
 
@@ -65,7 +65,7 @@ impl Arith for Separate {
 
 /// A kernel as a function of `r^2`, for the vectorized loops, up to a constant factor that
 /// the weights take.
-trait Phi {
+pub(super) trait Phi {
     /// `phi(r) = WEIGHT_SCALE * phi(r2)`.
     const WEIGHT_SCALE: f64 = 1.0;
     /// Whether this is `r^2 log r`, which has its own AVX-512 loop.
@@ -137,10 +137,10 @@ fn ln<A: Arith>(x: f64) -> f64 {
 }
 
 /// The centres and weights a block loop reads.
-struct Centres<'a> {
+pub(super) struct Centres<'a> {
     /// `centres[a * n + j]`.
-    centres: &'a [f64],
-    weights: &'a [f64],
+    pub(super) centres: &'a [f64],
+    pub(super) weights: &'a [f64],
 }
 
 /// The radial part `sum_j d_j phi(|x - c_j|)` for one block of points given per axis.
@@ -231,7 +231,7 @@ impl Isa {
     }
 }
 
-fn dispatch<const D: usize, K: Phi>(
+pub(super) fn dispatch<const D: usize, K: Phi>(
     isa: Isa,
     c: &Centres,
     points: &[Vec<f64>; D],
@@ -265,43 +265,81 @@ fn baseline<const D: usize, K: Phi>(c: &Centres, points: &[Vec<f64>; D], out: &m
     run::<D, K, Separate>(c, points, out)
 }
 
+/// How the radial sum is taken.
+#[derive(Debug, Clone, Copy)]
+pub(super) enum Summation {
+    /// The treecode where it pays ([`treecode::pays`]), the direct sum elsewhere.
+    Auto,
+    /// The exact sum over every centre.
+    Direct,
+    /// The treecode with these parameters for three-dimensional functions, the direct sum for
+    /// the others.
+    #[cfg(test)]
+    Treecode(treecode::Params),
+}
+
 /// The values of `implicit` at `count` points, the `i`th written (in the mesh's units, `dim`
-/// coordinates, into a zeroed buffer) by `point(i, buffer)`. Parallel and vectorized.
+/// coordinates, into a zeroed buffer) by `point(i, buffer)`. Parallel and vectorized; many
+/// points of a function of many centres go through the treecode ([`treecode`]).
 pub(super) fn values(
     implicit: &Implicit,
     count: usize,
     point: impl Fn(usize, &mut [f64]) + Sync,
 ) -> Vec<f64> {
-    values_with(Isa::detect(), implicit, count, point)
+    values_with(Isa::detect(), Summation::Auto, implicit, count, point)
 }
 
-/// [`values`] with the instruction set chosen by the caller (it must be supported).
-pub(super) fn values_with(
-    isa: Isa,
+/// [`values`] by the direct sum, whatever the number of centres and points.
+pub(super) fn values_exact(
     implicit: &Implicit,
     count: usize,
     point: impl Fn(usize, &mut [f64]) + Sync,
 ) -> Vec<f64> {
+    values_with(Isa::detect(), Summation::Direct, implicit, count, point)
+}
+
+/// [`values`] with the instruction set (it must be supported) and summation chosen by the
+/// caller.
+pub(super) fn values_with(
+    isa: Isa,
+    sum: Summation,
+    implicit: &Implicit,
+    count: usize,
+    point: impl Fn(usize, &mut [f64]) + Sync,
+) -> Vec<f64> {
+    let p = &point;
     match (implicit.dim, implicit.kernel) {
-        (2, Kernel::ThinPlate) => values_dim::<2, ThinPlate>(isa, implicit, count, &point),
-        (2, Kernel::Cubic) => values_dim::<2, Cubic>(isa, implicit, count, &point),
-        (2, Kernel::Linear) => values_dim::<2, Linear>(isa, implicit, count, &point),
-        (3, Kernel::ThinPlate) => values_dim::<3, ThinPlate>(isa, implicit, count, &point),
-        (3, Kernel::Cubic) => values_dim::<3, Cubic>(isa, implicit, count, &point),
-        (3, Kernel::Linear) => values_dim::<3, Linear>(isa, implicit, count, &point),
-        (_, Kernel::ThinPlate) => values_dim::<4, ThinPlate>(isa, implicit, count, &point),
-        (_, Kernel::Cubic) => values_dim::<4, Cubic>(isa, implicit, count, &point),
-        (_, Kernel::Linear) => values_dim::<4, Linear>(isa, implicit, count, &point),
+        (2, Kernel::ThinPlate) => values_dim::<2, ThinPlate>(isa, sum, implicit, count, p),
+        (2, Kernel::Cubic) => values_dim::<2, Cubic>(isa, sum, implicit, count, p),
+        (2, Kernel::Linear) => values_dim::<2, Linear>(isa, sum, implicit, count, p),
+        (3, Kernel::ThinPlate) => values_dim::<3, ThinPlate>(isa, sum, implicit, count, p),
+        (3, Kernel::Cubic) => values_dim::<3, Cubic>(isa, sum, implicit, count, p),
+        (3, Kernel::Linear) => values_dim::<3, Linear>(isa, sum, implicit, count, p),
+        (_, Kernel::ThinPlate) => values_dim::<4, ThinPlate>(isa, sum, implicit, count, p),
+        (_, Kernel::Cubic) => values_dim::<4, Cubic>(isa, sum, implicit, count, p),
+        (_, Kernel::Linear) => values_dim::<4, Linear>(isa, sum, implicit, count, p),
     }
 }
 
 fn values_dim<const D: usize, K: Phi>(
     isa: Isa,
+    sum: Summation,
     implicit: &Implicit,
     count: usize,
     point: &(impl Fn(usize, &mut [f64]) + Sync),
 ) -> Vec<f64> {
     let weights: Vec<f64> = implicit.weights.iter().map(|d| d * K::WEIGHT_SCALE).collect();
+    let params = match sum {
+        Summation::Auto => treecode::pays(implicit.len(), count).then_some(treecode::PARAMS),
+        Summation::Direct => None,
+        #[cfg(test)]
+        Summation::Treecode(params) => Some(params),
+    };
+    if let Some(params) = params.filter(|_| D == 3)
+        && let Some(values) = by_treecode::<K>(isa, &params, implicit, &weights, count, point)
+    {
+        return values;
+    }
     let centres = Centres { centres: &implicit.centres, weights: &weights };
     in_chunks::<D, f64>(
         implicit,
@@ -311,6 +349,41 @@ fn values_dim<const D: usize, K: Phi>(
         |x| x,
         |points, sums| dispatch::<D, K>(isa, &centres, points, sums),
     )
+}
+
+/// [`values`] of a three-dimensional function, with the radial part summed by the treecode:
+/// every point normalized at once, the polynomial added in f64. `None` when a coordinate is
+/// not finite (the direct sum confines such a point's NaN to its own value).
+fn by_treecode<K: Phi>(
+    isa: Isa,
+    params: &treecode::Params,
+    implicit: &Implicit,
+    weights: &[f64],
+    count: usize,
+    point: &(impl Fn(usize, &mut [f64]) + Sync),
+) -> Option<Vec<f64>> {
+    let normalized: Vec<[f64; 3]> = (0..count)
+        .into_par_iter()
+        .map(|i| {
+            let (mut raw, mut x) = ([0.0; 3], [0.0; 3]);
+            point(i, &mut raw);
+            implicit.normalization.apply(&raw, &mut x);
+            x
+        })
+        .collect();
+    if !normalized.par_iter().all(|x| x.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    let axes: [Vec<f64>; 3] =
+        std::array::from_fn(|a| normalized.par_iter().map(|x| x[a]).collect());
+    let poly = &implicit.polynomial;
+    let mut out: Vec<f64> = normalized
+        .par_iter()
+        .map(|x| poly[0] + poly[1] * x[0] + poly[2] * x[1] + poly[3] * x[2])
+        .collect();
+    let points = std::array::from_fn(|a| axes[a].as_slice());
+    treecode::radial::<K>(isa, params, &implicit.centres, weights, points, &mut out);
+    Some(out)
 }
 
 /// The values at `count` points, in parallel chunks: each chunk's normalized points go to
@@ -489,7 +562,7 @@ fn kernel_columns_dim<const D: usize, K: Phi>(centres: &[f64], columns: &mut [f6
 
 /// The value at one point (missing coordinates zero), by the same code as batches.
 pub(super) fn value_at(implicit: &Implicit, x: &[f64]) -> f64 {
-    values(implicit, 1, |_, out| {
+    values_with(Isa::detect(), Summation::Direct, implicit, 1, |_, out| {
         let k = out.len().min(x.len());
         out[..k].copy_from_slice(&x[..k]);
     })[0]
@@ -578,7 +651,7 @@ mod isa_tests {
                 if !isa.supported() {
                     continue;
                 }
-                let got = values_with(isa, &implicit, points.len(), |i, out| {
+                let got = values_with(isa, Summation::Direct, &implicit, points.len(), |i, out| {
                     out.copy_from_slice(&points[i])
                 });
                 for (g, s) in got.iter().zip(&scalar) {
