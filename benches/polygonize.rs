@@ -1,5 +1,7 @@
 //! Polygonization speed: the signed distance of a few tori and spheres on a 176 x 220 x 218
-//! grid (the size of the bunny's volume), and an analytic field sampled and refined.
+//! grid (the size of the bunny's volume), an analytic field sampled and refined, and a fitted
+//! bunny (the 700 constraints of tests/data) at 256 voxels along its longest axis, polygonized
+//! by surface following and by evaluating the whole grid.
 //!
 //! `cargo bench --bench polygonize` runs the criterion benchmarks. Two environment variables
 //! turn the binary into the helper of `scripts/bench-polygonize.sh` instead:
@@ -12,7 +14,11 @@ use std::path::Path;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group};
-use implicitize::{DVec3, Field, Grid, Volume, polygonize, polygonize_field};
+use implicitize::polygonize::polygonize_field_dense;
+use implicitize::rbf::read_constraints;
+use implicitize::{
+    Aabb, DVec3, Field, Grid, Implicit, Kernel, Resolution, Volume, polygonize, polygonize_field,
+};
 
 /// The bunny volume's size in the paper-scale runs.
 const DIMS: [usize; 3] = [176, 220, 218];
@@ -75,7 +81,33 @@ fn benches(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(polygonize_benches, benches);
+/// The bunny's 700 constraints solved, and a grid of 256 voxels along their longest axis.
+fn bunny() -> (Implicit, Grid) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bunny_constraints.csv");
+    let (dim, constraints) = read_constraints(&path).expect("the bunny's constraints");
+    let implicit = Implicit::solve(dim, Kernel::ThinPlate, &constraints).expect("a solved bunny");
+    let positions: Vec<DVec3> =
+        constraints.iter().map(|c| DVec3::from_slice(c.position())).collect();
+    let bounds = Aabb::of_points(&positions).expect("constraints");
+    let grid = Grid::around(&bounds, Resolution::LongestAxis(256)).expect("a grid");
+    (implicit, grid)
+}
+
+fn fitted(c: &mut Criterion) {
+    let (implicit, grid) = bunny();
+    let [nx, ny, nz] = grid.dims;
+    let mut group = c.benchmark_group("polygonize fitted bunny");
+    group.sample_size(10);
+    group.bench_function(format!("surface following {nx}x{ny}x{nz}"), |b| {
+        b.iter(|| polygonize_field(&implicit, black_box(&grid)))
+    });
+    group.bench_function(format!("dense {nx}x{ny}x{nz}"), |b| {
+        b.iter(|| polygonize_field_dense(&implicit, black_box(&grid)))
+    });
+    group.finish();
+}
+
+criterion_group!(polygonize_benches, benches, fitted);
 
 fn read_volume(path: &Path) -> Volume<f32> {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

@@ -325,6 +325,14 @@ impl Field for Composite {
         }
         acc
     }
+
+    /// Every child's surface points. The composite's surface is made of pieces of its
+    /// children's (moved by at most the fillet where blended), so they are near it where it
+    /// keeps the children's surfaces; points a child has inside another shape are not on the
+    /// composite's surface, which costs polygonization only the cubes around them.
+    fn surface_points(&self) -> Vec<DVec3> {
+        self.children.iter().flat_map(|c| c.model.surface_points()).collect()
+    }
 }
 
 /// The typical gradient magnitude of a shape's function at its surface, in value units per

@@ -236,6 +236,11 @@ impl Field for Model {
     fn values(&self, points: &[DVec3]) -> Vec<f64> {
         self.shape.field().values(points)
     }
+
+    /// The shape's points on its surface.
+    fn surface_points(&self) -> Vec<DVec3> {
+        self.shape.field().surface_points()
+    }
 }
 
 /// The fields read first, to tell a wrong file or version from a damaged one.

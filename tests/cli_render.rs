@@ -1,5 +1,5 @@
-//! `implicitize render`, `fit --snapshots` and `demo`'s picture through the command line, on a
-//! fit of the vendored triceratops.
+//! `implicitize render`, `fit --snapshots`, `mesh` and `demo`'s picture through the command line,
+//! on a fit of the vendored triceratops.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -142,6 +142,25 @@ fn a_rendered_model_and_its_polygonized_mesh_share_their_silhouette() {
     assert!(covered(&field) > 0.1);
     let agreement = iou(&mesh, &field);
     assert!(agreement >= 0.98, "the silhouettes agree on {agreement} of the union");
+}
+
+#[test]
+fn mesh_follows_the_surface_to_the_same_file_as_dense_evaluation() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = fitted().join("model.json");
+    let mesh = |name: &str, extra: &[&str]| {
+        let path = dir.path().join(name);
+        run(implicitize()
+            .arg("mesh")
+            .arg(&model)
+            .args(["--resolution", "90", "--quiet", "-o"])
+            .arg(&path)
+            .args(extra));
+        std::fs::read(path).unwrap()
+    };
+    let followed = mesh("followed.ply", &[]);
+    assert!(followed.len() > 10_000, "{} bytes", followed.len());
+    assert!(followed == mesh("dense.ply", &["--dense"]), "the files differ");
 }
 
 #[test]

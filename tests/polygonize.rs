@@ -2,8 +2,14 @@
 //! shapes, watertight on random volumes, open only where the grid cuts the surface.
 
 use std::collections::HashMap;
+use std::path::Path;
 
-use implicitize::{DVec3, Field, Grid, Mesh, Volume, polygonize, polygonize_field};
+use implicitize::polygonize::polygonize_field_dense;
+use implicitize::rbf::read_constraints;
+use implicitize::{
+    Aabb, DVec3, Field, Grid, Implicit, Kernel, Mesh, Resolution, Volume, polygonize,
+    polygonize_field,
+};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -63,6 +69,37 @@ impl Field for Torus {
         let rho = (q.x * q.x + q.y * q.y).sqrt().max(1e-300);
         let (a, z) = self.tube(p);
         -2.0 * DVec3::new(a * q.x / rho, a * q.y / rho, z)
+    }
+}
+
+/// A field with the given surface points, so that [`polygonize_field`] follows its surface.
+struct Seeded<F> {
+    field: F,
+    points: Vec<DVec3>,
+}
+
+impl<F: Field> Field for Seeded<F> {
+    fn value(&self, p: DVec3) -> f64 {
+        self.field.value(p)
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        self.field.gradient(p)
+    }
+    fn surface_points(&self) -> Vec<DVec3> {
+        self.points.clone()
+    }
+}
+
+/// The union (largest value) of some spheres.
+struct Spheres(Vec<Sphere>);
+
+impl Field for Spheres {
+    fn value(&self, p: DVec3) -> f64 {
+        self.0.iter().map(|s| s.value(p)).fold(f64::MIN, f64::max)
+    }
+    fn gradient(&self, p: DVec3) -> DVec3 {
+        let nearest = self.0.iter().max_by(|a, b| a.value(p).total_cmp(&b.value(p)));
+        nearest.map_or(DVec3::ZERO, |s| s.gradient(p))
     }
 }
 
@@ -386,6 +423,8 @@ fn grids_without_cubes_give_empty_meshes() {
         assert!(mesh.triangles.is_empty() && mesh.vertices.is_empty());
         let s = Sphere { center: centre(&g), radius: 3.0 * g.voxel_size };
         assert!(polygonize_field(&s, &g).triangles.is_empty());
+        let seeded = Seeded { points: vec![s.center + DVec3::X * s.radius], field: s };
+        assert!(polygonize_field(&seeded, &g).triangles.is_empty());
     }
 }
 
@@ -404,15 +443,108 @@ fn the_mesh_does_not_depend_on_the_number_of_threads() {
     let g = grid([41, 40, 70]);
     let t = torus_in(&g);
     let volume = sampled(g, |p| t.value(p));
+    let points = vec![t.center + DVec3::X * (t.major + t.minor)];
+    let seeded = Seeded { points, field: torus_in(&g) };
     let with_threads = |n: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build().expect("a thread pool");
-        pool.install(|| (polygonize(&volume, 0.0), polygonize_field(&t, &g)))
+        pool.install(|| {
+            (polygonize(&volume, 0.0), polygonize_field(&t, &g), polygonize_field(&seeded, &g))
+        })
     };
     let one = with_threads(1);
+    assert_eq!(one.2, one.1, "surface following differs from the dense path");
     for n in [2, 3, 7] {
         let many = with_threads(n);
         assert_closed(&many.0);
         assert_closed(&many.1);
+        assert_closed(&many.2);
         assert!(one == many, "{n} threads give a different mesh than one");
     }
+}
+
+// ---- surface following ----
+
+/// The 700 constraints of the bunny (tests/data), solved with the thin-plate kernel.
+fn bunny() -> (Implicit, Aabb) {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let (dim, constraints) = read_constraints(&data.join("bunny_constraints.csv")).unwrap();
+    let implicit = Implicit::solve(dim, Kernel::ThinPlate, &constraints).unwrap();
+    let positions: Vec<DVec3> =
+        constraints.iter().map(|c| DVec3::from_slice(c.position())).collect();
+    (implicit, Aabb::of_points(&positions).unwrap())
+}
+
+#[test]
+fn surface_following_gives_the_dense_mesh_of_a_fitted_bunny() {
+    let (implicit, bounds) = bunny();
+    let seeds = implicit.surface_points();
+    let boundary = implicit.constraints().iter().filter(|c| c.value() == 0.0).count();
+    assert!(boundary > 100 && seeds.len() == boundary, "{} of {boundary}", seeds.len());
+    for resolution in [40, 97] {
+        let g = Grid::around(&bounds, Resolution::LongestAxis(resolution)).unwrap();
+        let dense = polygonize_field_dense(&implicit, &g);
+        let followed = polygonize_field(&implicit, &g);
+        assert!(followed.triangles.len() > 1000, "{} triangles", followed.triangles.len());
+        // Same vertices and triangles in the same order: the same mesh, bit for bit.
+        assert!(followed == dense, "at {resolution}: the meshes differ");
+        assert_well_formed(&followed, g.voxel_size);
+        assert_closed(&followed);
+        assert!(signed_volume(&followed) > 0.0);
+    }
+}
+
+/// A sphere of radius 4.3 voxels centred between the coarse lattice's nodes (every 8th voxel)
+/// around `cell`, so that no lattice node is inside it and no lattice edge crosses it.
+fn between_nodes(g: &Grid, cell: [usize; 3]) -> Sphere {
+    let centre = cell.map(|c| 8 * c + 4);
+    Sphere { center: g.position(centre) + DVec3::splat(0.013), radius: 4.3 * g.voxel_size }
+}
+
+#[test]
+fn two_seeded_components_between_the_lattice_nodes_are_both_found() {
+    let g = grid([36, 26, 30]);
+    let spheres = Spheres(vec![between_nodes(&g, [1, 1, 1]), between_nodes(&g, [3, 1, 2])]);
+    let on_surface = |s: &Sphere| s.center + DVec3::new(0.0, 0.0, s.radius);
+    // Points off the grid or not finite are ignored.
+    let extra = [g.position([1000, 0, 0]), DVec3::NAN, DVec3::splat(f64::INFINITY)];
+    let points = spheres.0.iter().map(on_surface).chain(extra).collect();
+    let seeded = Seeded { points, field: spheres };
+    let dense = polygonize_field_dense(&seeded, &g);
+    let followed = polygonize_field(&seeded, &g);
+    assert_eq!(components(&dense), 2);
+    assert!(followed == dense, "the meshes differ");
+    assert_closed(&followed);
+    assert_eq!(euler_characteristic(&followed), 4);
+    assert!(signed_volume(&followed) > 0.0);
+}
+
+#[test]
+fn a_component_without_a_surface_point_is_found_only_through_the_lattice() {
+    let g = grid([48, 42, 32]);
+    let seeded = between_nodes(&g, [1, 1, 1]);
+    let unseen = between_nodes(&g, [4, 3, 2]);
+    // Large enough to hold lattice nodes, so the lattice's sign changes find it.
+    let large = Sphere { center: g.position([12, 30, 20]), radius: 8.6 * g.voxel_size };
+    let point = seeded.center - DVec3::X * seeded.radius;
+    let all = Seeded { points: vec![point], field: Spheres(vec![seeded, unseen, large]) };
+    assert_eq!(components(&polygonize_field_dense(&all, &g)), 3);
+    let followed = polygonize_field(&all, &g);
+    assert_eq!(components(&followed), 2);
+    assert_closed(&followed);
+    // The spheres are far enough apart that near the other two the unseen one never has the
+    // largest value, so there the field is the same without it, and so is the mesh.
+    let Spheres(mut spheres) = all.field;
+    spheres.remove(1);
+    assert!(followed == polygonize_field_dense(&Spheres(spheres), &g));
+}
+
+#[test]
+fn surface_following_leaves_a_surface_open_only_at_the_grid_bounds() {
+    let g = grid([20, 18, 16]);
+    let s = Sphere { center: g.position([0, 0, 0]), radius: 9.3 * g.voxel_size };
+    let points = vec![s.center + DVec3::Y * s.radius];
+    let seeded = Seeded { points, field: s };
+    let followed = polygonize_field(&seeded, &g);
+    assert!(!boundary_edges(&followed).is_empty());
+    assert!(followed == polygonize_field_dense(&seeded, &g));
 }

@@ -19,6 +19,10 @@ pub struct MeshCommand {
     /// Voxels along the longest axis of the model's bounds, margins included.
     #[arg(long, default_value_t = 200)]
     pub resolution: usize,
+    /// Evaluate the model at every voxel rather than follow its surface from its boundary
+    /// constraints: slower, and also shows small or thin detached pieces far from them.
+    #[arg(long)]
+    pub dense: bool,
 }
 
 /// Polygonizes the model over its bounds and writes the mesh.
@@ -27,7 +31,11 @@ pub fn run(args: &MeshCommand, progress: Progress) -> anyhow::Result<()> {
     let grid = Grid::around(&model.bounds(), Resolution::LongestAxis(args.resolution))?;
     progress
         .stage(format!("polygonizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
-    let surface = polygonize::polygonize_field(&model, &grid);
+    let surface = if args.dense {
+        polygonize::polygonize_field_dense(&model, &grid)
+    } else {
+        polygonize::polygonize_field(&model, &grid)
+    };
     mesh::write(&args.output, &surface)?;
     progress.line(format!(
         "wrote {}: {} triangles, {} vertices",

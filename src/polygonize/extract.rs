@@ -42,6 +42,15 @@ pub(super) struct EdgeVertex {
     pub direction: u8,
 }
 
+impl EdgeVertex {
+    /// The linear index of the edge's other end.
+    pub(super) fn far_end(&self, grid: &Grid) -> usize {
+        let [i, j, k] = grid.voxel(self.base);
+        let d = |bit: u8| (self.direction >> bit & 1) as usize;
+        grid.index([i + d(0), j + d(1), k + d(2)])
+    }
+}
+
 /// The extracted surface before it becomes a [`Mesh`].
 #[derive(Debug, Default)]
 pub(super) struct Surface {
@@ -60,7 +69,7 @@ impl Surface {
 
 /// Whether a value counts as inside (at or above the iso level; NaN is outside).
 #[inline(always)]
-fn inside<T: Sample>(value: T, iso: T) -> bool {
+pub(super) fn inside<T: Sample>(value: T, iso: T) -> bool {
     value >= iso
 }
 
@@ -351,51 +360,51 @@ impl<T: Sample> Slabber<'_, T> {
                         MapKind::NextLayer => maps[2][cell * 3 + s.slot],
                     }
                 };
+                let corner = |m: u8| {
+                    let d = |bit: u8| (m >> bit & 1) as usize;
+                    self.value(i + d(0), j + d(1), k + d(2))
+                };
                 for piece in cases.pieces(case) {
-                    self.emit(piece, [i, j, k], lookup, triangles);
+                    emit(piece, self.iso, corner, lookup, triangles);
                 }
             });
         }
     }
+}
 
-    /// Emits one tetrahedron's piece of cube `(i, j, k)`; a quad is split along its shorter
-    /// diagonal.
-    #[inline]
-    fn emit(
-        &self,
-        piece: &Piece,
-        cube: [usize; 3],
-        lookup: impl Fn(EdgeId) -> u32,
-        triangles: &mut Vec<[u32; 3]>,
-    ) {
-        let e = piece.edges;
-        let [a, b, c] = [lookup(e[0]), lookup(e[1]), lookup(e[2])];
-        if piece.len == 3 {
-            triangles.push([a, b, c]);
-            return;
-        }
-        let d = lookup(e[3]);
-        let p = e.map(|edge| self.edge_point(cube, edge));
-        if p[0].distance_squared(p[2]) <= p[1].distance_squared(p[3]) {
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        } else {
-            triangles.push([a, b, d]);
-            triangles.push([b, c, d]);
-        }
+/// Emits one tetrahedron's piece of a cube whose corner `c` has the value `corner(c)`; a quad
+/// is split along its shorter diagonal. `lookup` gives the index of the vertex on a cube edge.
+#[inline]
+pub(super) fn emit<T: Sample>(
+    piece: &Piece,
+    iso: T,
+    corner: impl Fn(u8) -> T,
+    lookup: impl Fn(EdgeId) -> u32,
+    triangles: &mut Vec<[u32; 3]>,
+) {
+    let e = piece.edges;
+    let [a, b, c] = [lookup(e[0]), lookup(e[1]), lookup(e[2])];
+    if piece.len == 3 {
+        triangles.push([a, b, c]);
+        return;
     }
+    let d = lookup(e[3]);
+    let p = e.map(|edge| edge_point(&corner, iso, edge));
+    if p[0].distance_squared(p[2]) <= p[1].distance_squared(p[3]) {
+        triangles.push([a, b, c]);
+        triangles.push([a, c, d]);
+    } else {
+        triangles.push([a, b, d]);
+        triangles.push([b, c, d]);
+    }
+}
 
-    /// The crossing on cube edge `e` of cube `(i, j, k)`, in voxel coordinates relative to the
-    /// cube.
-    #[inline]
-    fn edge_point(&self, [i, j, k]: [usize; 3], e: EdgeId) -> DVec3 {
-        let (base, dir) = (edge_base(e), edge_direction(e));
-        let at = |m: u8| {
-            let d = |bit: u8| (m >> bit & 1) as usize;
-            self.value(i + d(0), j + d(1), k + d(2))
-        };
-        offset(base) + crossing(at(base), at(base | dir), self.iso) * offset(dir)
-    }
+/// The crossing on cube edge `e` of a cube whose corner `c` has the value `corner(c)`, in voxel
+/// coordinates relative to the cube.
+#[inline]
+fn edge_point<T: Sample>(corner: impl Fn(u8) -> T, iso: T, e: EdgeId) -> DVec3 {
+    let (base, dir) = (edge_base(e), edge_direction(e));
+    offset(base) + crossing(corner(base), corner(base | dir), iso) * offset(dir)
 }
 
 /// Joins the slabs into one surface, resolving references to each next slab's first layer.

@@ -3,8 +3,11 @@
 //! The paper shows its implicit surfaces as polygon meshes (figures 1, 4 and 5) and evaluates
 //! them on the voxel grid (section 5.2); this module turns such a grid of values back into a
 //! mesh. [`polygonize`] extracts any iso level of a stored volume; [`polygonize_field`]
-//! samples a [`Field`] on a grid, extracts its zero set and moves each vertex onto the field's
-//! true zero along its grid edge.
+//! extracts the zero set of a [`Field`] sampled on a grid and moves each vertex onto the
+//! field's true zero along its grid edge. It follows the surface from points known to lie on it
+//! when the field offers them (a fitted model's boundary constraints), evaluating the field
+//! only around the surface, and evaluates the whole grid ([`polygonize_field_dense`])
+//! otherwise.
 //!
 //! ## Method: marching tetrahedra
 //! Every cube of eight neighbouring voxel centres is split into six tetrahedra along its main
@@ -32,14 +35,40 @@
 //! - A grid with fewer than two voxels along some axis (such as a 2D grid) holds no cube and
 //!   gives an empty mesh.
 //!
+//! ## Which components surface following finds
+//! [`polygonize_field`] of a field with surface points does not look at every voxel. It starts
+//! from seed cubes and grows through the faces the surface crosses, so it finds whole
+//! components of the surface [`polygonize_field_dense`] extracts, and a component it finds is
+//! exactly the dense one: the same vertex positions, the same triangles, in the same order
+//! (the indices skip what is left out), given a field whose value at a point does not depend
+//! on the other points of a [`Field::values`] call, as every field of this crate. Everything
+//! above therefore holds for it too. A component is found when
+//! 1. it passes through one of the eight cubes that have as a corner the voxel nearest one of
+//!    the field's surface points ([`Field::surface_points`]); or
+//! 2. it crosses the grid line between two neighbouring nodes of a coarse lattice that lie on
+//!    opposite sides of the surface. The lattice's nodes are the voxels whose indices are
+//!    multiples of 8 or the last along every axis.
+//!
+//! Every other component is missed. A closed piece that holds no lattice node can be (a ball
+//! less than 8√3 ≈ 13.9 voxels across may fit between the nodes, and so may a plate thinner
+//! than 8 voxels), unless it passes by a surface point or a lattice edge with opposite ends
+//! crosses it. A fitted model has surface points all over its surface, so what can be missed
+//! are such small or thin detached pieces away from its constraints;
+//! [`polygonize_field_dense`] shows those too.
+//!
 //! ## Cost
-//! Parallel over slabs of the grid with rayon; the only allocations are per slab (vertex maps
-//! of a few layers) and the output itself. [`polygonize_field`] evaluates the field once per
-//! voxel, then at most six times per vertex.
+//! [`polygonize`] runs in parallel over slabs of the grid with rayon; the only allocations are
+//! per slab (vertex maps of a few layers) and the output itself. [`polygonize_field_dense`]
+//! evaluates the field once per voxel, then at most six times per vertex. Surface following
+//! evaluates the field at the corners of the cubes the surface crosses, at the coarse lattice's
+//! nodes (one voxel in 512), at the voxels of the lattice edges with a sign change and around
+//! the surface points, a frontier of cubes per [`Field::values`] call, then at most six times
+//! per vertex; it stores only the values and cubes it visits, in hash maps.
 
 mod extract;
 mod refine;
 mod tables;
+mod track;
 
 use rayon::prelude::*;
 
@@ -47,6 +76,7 @@ use crate::field::Field;
 use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
 use crate::mesh::Mesh;
+use extract::EdgeVertex;
 
 /// The iso-surface of `volume` at level `iso`, as a triangle mesh in the volume's mesh units.
 ///
@@ -66,6 +96,28 @@ pub fn polygonize(volume: &Volume<f32>, iso: f32) -> Mesh {
 /// The zero set of `field` (inside positive) sampled on `grid`, with every vertex moved onto
 /// the field's zero along its grid edge.
 ///
+/// When the field offers surface points ([`Field::surface_points`]), the surface is followed
+/// from them and from the sign changes of a coarse lattice, evaluating the field only around
+/// the surface; the result is [`polygonize_field_dense`]'s mesh without the components that
+/// neither reaches (see [the guarantee](self#which-components-surface-following-finds)).
+/// Otherwise this is [`polygonize_field_dense`].
+///
+/// # Panics
+/// As for [`polygonize_field_dense`].
+pub fn polygonize_field<F: Field + ?Sized>(field: &F, grid: &Grid) -> Mesh {
+    let seeds = field.surface_points();
+    if seeds.is_empty() {
+        return polygonize_field_dense(field, grid);
+    }
+    let (mut surface, ends) = track::track(field, grid, &seeds);
+    refine::refine(field, grid, &mut surface.vertices, ends);
+    surface.into_mesh()
+}
+
+/// The zero set of `field` (inside positive) sampled at every voxel of `grid`, with every
+/// vertex moved onto the field's zero along its grid edge: every component, at the cost of
+/// evaluating the whole grid.
+///
 /// The field is evaluated at every voxel centre through [`Field::values`] (in parallel), the
 /// surface is extracted as by [`polygonize`] at level 0, then each vertex is refined with a few
 /// safeguarded regula falsi steps within its edge, so it lies on the field's surface rather
@@ -75,10 +127,11 @@ pub fn polygonize(volume: &Volume<f32>, iso: f32) -> Mesh {
 /// # Panics
 /// If the field's [`Field::values`] returns a different number of values than points, or as
 /// for [`polygonize`].
-pub fn polygonize_field<F: Field + ?Sized>(field: &F, grid: &Grid) -> Mesh {
+pub fn polygonize_field_dense<F: Field + ?Sized>(field: &F, grid: &Grid) -> Mesh {
     let samples = sample(field, grid);
     let mut surface = extract::extract(&samples, 0.0);
-    refine::refine(field, &samples, &mut surface.vertices);
+    let ends = |v: &EdgeVertex| [samples.data[v.base], samples.data[v.far_end(grid)]];
+    refine::refine(field, grid, &mut surface.vertices, ends);
     surface.into_mesh()
 }
 

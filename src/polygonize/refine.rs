@@ -12,7 +12,7 @@ use super::extract::{END_MARGIN, EdgeVertex};
 use super::tables::offset;
 use crate::field::Field;
 use crate::geometry::DVec3;
-use crate::grid::{Grid, Volume};
+use crate::grid::Grid;
 
 /// The most field evaluations per vertex.
 const MAX_STEPS: usize = 6;
@@ -66,16 +66,17 @@ impl Bracket {
     }
 }
 
-/// Moves every vertex onto the zero of `field` along its edge. `samples` holds the field's
-/// values at the voxels, the ones the surface was extracted from.
+/// Moves every vertex onto the zero of `field` along its edge of `grid`. `ends(v)` gives the
+/// field's values at the base and the far end of a vertex's edge, the values the surface was
+/// extracted from.
 pub(super) fn refine<F: Field + ?Sized>(
     field: &F,
-    samples: &Volume<f64>,
+    grid: &Grid,
     vertices: &mut [EdgeVertex],
+    ends: impl Fn(&EdgeVertex) -> [f64; 2] + Sync,
 ) {
-    let grid = &samples.grid;
     let mut open: Vec<Bracket> =
-        vertices.par_iter().enumerate().map(|(n, v)| initial_bracket(n, v, samples)).collect();
+        vertices.par_iter().enumerate().map(|(n, v)| initial_bracket(n, ends(v))).collect();
     let mut closed = Vec::with_capacity(open.len());
     for _ in 0..MAX_STEPS {
         if open.is_empty() {
@@ -108,13 +109,9 @@ pub(super) fn refine<F: Field + ?Sized>(
         .for_each(|(v, &t)| v.position = edge_point(grid, v, t));
 }
 
-/// The bracket of the whole edge, from the sampled values at its ends.
-fn initial_bracket(vertex: usize, v: &EdgeVertex, samples: &Volume<f64>) -> Bracket {
-    let grid = &samples.grid;
-    let [i, j, k] = grid.voxel(v.base);
-    let d = |bit: u8| (v.direction >> bit & 1) as usize;
-    let a = samples.data[v.base];
-    let b = samples.data[grid.index([i + d(0), j + d(1), k + d(2)])];
+/// The bracket of the whole edge of vertex number `vertex`, from the sampled values at its base
+/// and far end.
+fn initial_bracket(vertex: usize, [a, b]: [f64; 2]) -> Bracket {
     let (t_in, g_in, t_out, g_out) = if a >= 0.0 { (0.0, a, 1.0, b) } else { (1.0, b, 0.0, a) };
     Bracket { vertex, t_in, g_in, t_out, g_out, last: 0 }
 }

@@ -427,4 +427,18 @@ impl Field for Implicit {
             out[..k].copy_from_slice(&p[..k]);
         })
     }
+
+    /// The positions of the boundary constraints, where the function interpolates zero, for a
+    /// 3D function; none for a 2D or 4D one, whose boundary constraints are not points of the
+    /// zero set this field has in space.
+    fn surface_points(&self) -> Vec<DVec3> {
+        if self.dim != 3 {
+            return Vec::new();
+        }
+        self.constraints
+            .iter()
+            .filter(|c| c.kind() == ConstraintKind::Boundary)
+            .map(|c| DVec3::from_slice(&c.position))
+            .collect()
+    }
 }
