@@ -66,7 +66,7 @@ fn fit_writes_the_model_the_report_and_the_surface() {
 }
 
 /// The grid of each iteration of a fit of two iterations at 128 voxels, with and without
-/// `--full-resolution`.
+/// `--full-resolution`; the report's reason for stopping is the iteration limit.
 fn grids_at_128(flags: &[&str]) -> Vec<String> {
     let dir = tempfile::tempdir().unwrap();
     let report = dir.path().join("r.json");
@@ -83,6 +83,8 @@ fn grids_at_128(flags: &[&str]) -> Vec<String> {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    // Two iterations cannot reach E 2 on this grid: the report says the limit stopped the fit.
+    assert_eq!(report["termination"], serde_json::json!({"reason": "iteration_limit", "limit": 2}));
     let iterations = report["per_iteration"].as_array().unwrap();
     iterations.iter().map(|i| i["grid"].as_str().unwrap().to_string()).collect()
 }

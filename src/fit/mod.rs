@@ -185,7 +185,7 @@ pub fn fit(
     let started = Instant::now();
     let grid = *goal.grid();
     let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
-    let (constraints, iterations_left) = match coarse::CoarseStart::of(goal, options) {
+    let constraints = match coarse::CoarseStart::of(goal, options) {
         Some(start) => {
             log.totals.signed_distance += started.elapsed().as_secs_f64();
             let first = init::initial_constraints(&start.goal, options);
@@ -197,15 +197,12 @@ pub fn fit(
                 &mut log,
                 &mut on_iteration,
             )?;
-            let moved = stage.constraints.iter().map(|c| start.to_full(c, goal)).collect();
-            (moved, options.max_iterations - log.per_iteration.len())
+            stage.constraints.iter().map(|c| start.to_full(c, goal)).collect()
         }
-        None => (init::initial_constraints(goal, options), options.max_iterations),
+        None => init::initial_constraints(goal, options),
     };
     let first_full = log.per_iteration.len();
-    let full_options = FitOptions { max_iterations: iterations_left, ..options.clone() };
-    let stage =
-        iterate(goal, constraints, &full_options, GridLevel::Full, &mut log, &mut on_iteration)?;
+    let stage = iterate(goal, constraints, options, GridLevel::Full, &mut log, &mut on_iteration)?;
     let Log { per_iteration, mut totals } = log;
     let best_iteration = first_full + stage.best_iteration;
     let metrics = stage.metrics;
@@ -301,9 +298,13 @@ fn iterate(
         if best.as_ref().is_some_and(|b| b.2 == iteration) {
             last_improvement = iteration;
         }
-        if let Some(reason) =
-            stop_reason(&metrics, iteration, last_improvement, constraints.len(), options)
-        {
+        if let Some(reason) = stop_reason(
+            &metrics,
+            [iteration, log.per_iteration.len()],
+            last_improvement,
+            constraints.len(),
+            options,
+        ) {
             termination = reason;
             break;
         }
@@ -444,10 +445,13 @@ fn better(a: &ErrorMetrics, b: &ErrorMetrics) -> bool {
     (a.max_error, a.rms_error_subvoxel) < (b.max_error, b.rms_error_subvoxel)
 }
 
-/// Why the loop stops after this iteration, if it does (paper 5.4).
+/// Why the loop stops after this iteration, if it does (paper 5.4). `[iteration, in_fit]`
+/// count this iteration in the loop on one grid (for the patience, from `last_improvement`)
+/// and in the whole fit (for the iteration limit, whose iterations at half the resolution
+/// count too).
 fn stop_reason(
     metrics: &ErrorMetrics,
-    iteration: usize,
+    [iteration, in_fit]: [usize; 2],
     last_improvement: usize,
     constraint_count: usize,
     options: &FitOptions,
@@ -458,7 +462,7 @@ fn stop_reason(
         Some(Termination::TargetWeightedError { target: options.target_weighted_error })
     } else if iteration >= last_improvement + options.patience {
         Some(Termination::NoImprovement { patience: options.patience })
-    } else if iteration >= options.max_iterations {
+    } else if in_fit >= options.max_iterations {
         Some(Termination::IterationLimit { limit: options.max_iterations })
     } else if constraint_count >= options.max_constraints {
         Some(Termination::ConstraintLimit { limit: options.max_constraints })
@@ -483,12 +487,13 @@ mod tests {
     fn the_patience_counts_from_the_last_improvement_of_either_metric() {
         let options = FitOptions::default();
         let metrics = ErrorMetrics { max_error: 5.0, weighted_error: 1.0, ..Default::default() };
-        let stop = |iteration, last| stop_reason(&metrics, iteration, last, 100, &options);
+        let stop =
+            |iteration, last| stop_reason(&metrics, [iteration, iteration], last, 100, &options);
         assert_eq!(stop(10, 7), None);
         assert_eq!(stop(10, 6), Some(Termination::NoImprovement { patience: 4 }));
         let accurate = ErrorMetrics { max_error: 0.4, ..metrics };
         assert_eq!(
-            stop_reason(&accurate, 2, 2, 100, &options),
+            stop_reason(&accurate, [2, 2], 2, 100, &options),
             Some(Termination::TargetError { target: 2.0 })
         );
     }
