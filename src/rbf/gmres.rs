@@ -129,7 +129,9 @@ fn arnoldi_cycle(
         g.push(-s * g[j]);
         g[j] *= c;
         h.push(column);
-        let done = g[j + 1].abs() <= tolerance || !(next > 0.0) || !next.is_finite();
+        // A zero (or non-finite) next direction ends the cycle: the space is exhausted.
+        let exhausted = next.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater);
+        let done = g[j + 1].abs() <= tolerance || exhausted || !next.is_finite();
         if done {
             break;
         }

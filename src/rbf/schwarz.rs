@@ -307,9 +307,9 @@ impl Bounds {
         let dim = points[indices[0]].len();
         let mut b = Bounds { lo: vec![f64::MAX; dim], hi: vec![f64::MIN; dim] };
         for &i in indices {
-            for a in 0..dim {
-                b.lo[a] = b.lo[a].min(points[i][a]);
-                b.hi[a] = b.hi[a].max(points[i][a]);
+            for ((lo, hi), &x) in b.lo.iter_mut().zip(&mut b.hi).zip(&points[i]) {
+                *lo = lo.min(x);
+                *hi = hi.max(x);
             }
         }
         b
