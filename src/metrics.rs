@@ -210,8 +210,15 @@ impl BoundaryErrors {
 /// Near the surface the distance is the first-order estimate `(v(p) - level) / |∇v(p)|` of the
 /// trilinear interpolation of the values, which is exact for a plane and within a small
 /// fraction of a voxel for surfaces curved on the scale of a few voxels. Where that estimate is
-/// unavailable (a flat stretch of values) or further than `reach` voxels, the trilinear
-/// interpolation of the voxel signed distance is used instead.
+/// unavailable (a flat stretch of values), further than `reach` voxels, or more than
+/// [`AGREEMENT`] voxels from the voxel signed distance, the trilinear interpolation of the
+/// voxel signed distance is used instead.
+///
+/// The last case is where the values dip towards the level without crossing it: where a thin
+/// part of the current surface pinches off, the implicit function inside it falls to just below
+/// zero, and `v / |∇v|` says the surface is a fraction of a voxel away while the nearest point
+/// across is several voxels off. The voxel signed distance, within a voxel of the true
+/// distance, tells the two apart.
 #[derive(Debug, Clone, Copy)]
 pub struct SubVoxel<'a> {
     /// Values whose `level` set is the surface, larger inside.
@@ -232,7 +239,7 @@ impl SubVoxel<'_> {
             return coarse;
         }
         match self.first_order(p) {
-            Some(d) if d.abs() <= self.reach => d,
+            Some(d) if d.abs() <= self.reach && (d - coarse).abs() <= AGREEMENT => d,
             _ => coarse,
         }
     }
@@ -256,6 +263,11 @@ impl SubVoxel<'_> {
         p - (gradient * (value / g2)).clamp_length_max(f64::from(self.reach))
     }
 }
+
+/// How far (voxels) the first-order distance of [`SubVoxel`] may be from the voxel signed
+/// distance: a voxel centre's signed distance is within about half a voxel of its true distance to
+/// the surface, and trilinear interpolation between centres adds at most as much again.
+pub const AGREEMENT: f32 = 1.0;
 
 /// E, Ew and the RMS error of one current surface against the goal.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]
@@ -308,5 +320,32 @@ impl ErrorMetrics {
             max_error_subvoxel: self.max_error_subvoxel * scale,
             rms_error_subvoxel: self.rms_error_subvoxel * scale,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::Grid;
+
+    /// Where the values dip towards the level without crossing it (a pinching neck), the
+    /// first-order distance (0.8 voxels here) disagrees with the voxel signed distance (2.5)
+    /// and the latter is taken; where they agree, the first-order one.
+    #[test]
+    fn a_dip_that_does_not_cross_the_level_is_not_taken_for_the_surface() {
+        let grid = Grid { dims: [12, 12, 12], origin: [0.0; 3], voxel_size: 1.0 };
+        let sd = Volume::filled(grid, 2.5f32);
+        let mut values = Volume::filled(grid, 0.0f32);
+        for (n, v) in values.data.iter_mut().enumerate() {
+            *v = 0.1 * grid.voxel(n)[0] as f32 - 0.52;
+        }
+        let fine = SubVoxel { values: &values, level: 0.0, sd: &sd, reach: 2.0 };
+        // At x = 6 the values are 0.08 with a slope of 0.1: 0.8 voxels from their zero.
+        let p = DVec3::new(6.0, 6.0, 6.0);
+        assert_eq!(fine.signed_distance(p), 2.5);
+        // Where the voxel signed distance agrees within a voxel, the first-order one is kept.
+        let near = Volume::filled(grid, 1.5f32);
+        let fine = SubVoxel { sd: &near, ..fine };
+        assert!((fine.signed_distance(p) - 0.8).abs() < 1e-5);
     }
 }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use implicitize::fit::{self, FitOptions, FitReport, Goal};
+use implicitize::fit::{self, ErrorMeasure, FitOptions, FitReport, Goal};
 use implicitize::model::Model;
 use implicitize::{Mesh, mesh, polygonize, voxelize};
 
@@ -34,6 +34,11 @@ pub struct LoopArgs {
     /// are corrected however flat the surface is there.
     #[arg(long, default_value_t = FitOptions::default().target_error)]
     pub target_error: f32,
+    /// Measure E from points on the surfaces rather than from voxel centres, for the target,
+    /// the choice of the best model and the candidates above the target: the measure for
+    /// targets of a voxel or less (a voxel-centre E is never below 0.5 and moves in steps)
+    #[arg(long)]
+    pub subvoxel: bool,
     /// Never use more constraints than this [default: 50000; 2000 with --method naive, which
     /// uses half of them as mesh vertices]
     #[arg(long)]
@@ -47,6 +52,7 @@ impl LoopArgs {
             seed: self.seed,
             max_iterations: self.max_iterations,
             target_error: self.target_error,
+            error_measure: if self.subvoxel { ErrorMeasure::SubVoxel } else { ErrorMeasure::Voxel },
             max_constraints: self.max_constraints.unwrap_or(FitOptions::default().max_constraints),
             ..FitOptions::default()
         }

@@ -1,4 +1,6 @@
-//! The coarse start: the first iterations of the fit run on the goal at half the resolution.
+//! The coarse start: the first iterations of the fit run on the goal at half the resolution
+//! (and on a grid of 512 voxels or more, those at half the resolution start at a quarter, and
+//! so on: a pyramid of at most four levels).
 //!
 //! Paper 5.2 evaluates each model coarse to fine; this carries the idea across iterations. An
 //! iteration costs about the same whatever its error: the volume evaluation and the current
@@ -46,15 +48,20 @@ impl CoarseStart {
     }
 
     /// The options of the loop at half the resolution: its target is the coarse start's, in
-    /// its own voxels, its growth per iteration the coarse start's, and it leaves at least a
+    /// its own voxels and measured at voxel centres, its growth per iteration the coarse start's, and it leaves at least a
     /// quarter of the iterations to the full grid (an iteration at half the resolution costs
-    /// about an eighth of one on the full grid).
+    /// about an eighth of one on the full grid). It has a coarse start of its own only from
+    /// twice the axis that gave it one, so that no level is shorter than
+    /// `coarse_start_min_axis / 2` along its longest axis: a grid of 512 voxels starts at 128,
+    /// one of 337 at 169.
     pub fn options(&self, options: &FitOptions) -> FitOptions {
         let target = options.coarse_target_error.max(options.target_error);
         FitOptions {
             target_error: target / 2.0,
+            error_measure: super::ErrorMeasure::Voxel,
             max_iterations: options.max_iterations * 3 / 4,
             max_growth: options.coarse_max_growth,
+            coarse_start_min_axis: options.coarse_start_min_axis.saturating_mul(2),
             ..options.clone()
         }
     }
@@ -149,5 +156,28 @@ mod tests {
         let full = start.moved(&FitConstraint { position, value: -1.5, error: 2.0 });
         assert_eq!(full.position, DVec3::new(4.5, 2.5, 2.5));
         assert_eq!((full.value, full.error), (-3.0, 4.0));
+    }
+
+    /// A grid of 512 voxels starts at a quarter of its resolution (128 voxels), one of 300 at
+    /// half (152, which would make a level of 77 below it), one of 100 on its own grid.
+    #[test]
+    fn large_grids_start_from_a_pyramid_of_coarse_starts() {
+        let options = FitOptions::default();
+        let levels = |longest: usize| {
+            let grid = Grid { dims: [longest, 6, 5], origin: [0.0; 3], voxel_size: 1.0 };
+            let density = Volume::filled(grid, 0.0f32);
+            let mut goal = Goal::from_density(density, &options.regularity);
+            let mut options = options.clone();
+            let mut axes = vec![goal.grid().dims[0]];
+            while let Some(start) = CoarseStart::of(&goal, &options) {
+                options = start.options(&options);
+                goal = start.goal;
+                axes.push(goal.grid().dims[0]);
+            }
+            axes
+        };
+        assert_eq!(levels(512), [512, 258, 131]);
+        assert_eq!(levels(300), [300, 152]);
+        assert_eq!(levels(100), [100]);
     }
 }

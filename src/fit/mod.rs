@@ -3,7 +3,8 @@
 //!
 //! ```text
 //! constraints = initial_constraints()                      5.1
-//!     (on a large grid: the loop below at half the resolution, then its best constraints)
+//!     (on a large grid: the loop below at half the resolution, then its best constraints;
+//!      on a larger one, that loop itself starts at a quarter, ...)
 //! repeat
 //!     f_curr = solve(constraints)                          3.1
 //!     evaluate f_curr over the volume, coarse to fine      5.2
@@ -55,7 +56,8 @@ pub struct FitOptions {
     /// A candidate closer than `added_spacing_factor x sd(x)` to a voxel x where a constraint was
     /// added this iteration is pruned (paper: 2).
     pub added_spacing_factor: f64,
-    /// A candidate closer than this (voxels) to an existing constraint is pruned (paper: 2).
+    /// A candidate closer than this (voxels), or than the target E if that is smaller, to an
+    /// existing constraint is pruned (paper: 2; see `refine.rs`).
     pub min_constraint_spacing: f64,
     /// A candidate whose error is below this fraction of E is pruned (paper: 1/2).
     pub error_fraction: f32,
@@ -74,6 +76,9 @@ pub struct FitOptions {
     /// paper's error on its bunny. E moves in the voxel grid's steps (√k − ½: 2.33, 1.95, 1.74,
     /// 1.5, ...), and each step down costs hundreds of constraints more.
     pub target_error: f32,
+    /// How E is measured where it is compared with `target_error`, where the best model is
+    /// chosen, and where candidates are judged above the target.
+    pub error_measure: ErrorMeasure,
     /// Stop once Ew is at most this.
     pub target_weighted_error: f32,
     /// Stop when no model has improved on the best E or on the lowest RMS error for this many
@@ -100,7 +105,8 @@ pub struct FitOptions {
     /// lets the next iteration see what the last additions did.
     pub max_growth: f64,
     /// The fit starts on the goal at half the resolution (see `coarse.rs`) when its grid is 3D
-    /// and has at least this many voxels along its longest axis; `usize::MAX` never does.
+    /// and has at least this many voxels along its longest axis, and that start at a quarter
+    /// from four times as many, at an eighth from sixteen times as many; `usize::MAX` never does.
     pub coarse_start_min_axis: usize,
     /// The start at half the resolution hands over to the full grid once its E is at most
     /// this, in voxels of the full grid (or `target_error`, if larger): 3 voxels of the full
@@ -129,10 +135,11 @@ impl Default for FitOptions {
             only_above_target: true,
             snap_distance: 3.0,
             target_error: 2.0,
+            error_measure: ErrorMeasure::Voxel,
             target_weighted_error: 0.0,
             patience: 4,
             min_rms_improvement: 0.01,
-            max_iterations: 40,
+            max_iterations: 100,
             max_constraints: 50_000,
             max_growth: 0.1,
             coarse_start_min_axis: 128,
@@ -140,6 +147,33 @@ impl Default for FitOptions {
             coarse_max_growth: 0.2,
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
+        }
+    }
+}
+
+/// How the fit measures E against its target.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ErrorMeasure {
+    /// The paper's E (equation 3): distances from voxel centres, in the voxel grid's steps
+    /// (√k − ½: 0.5, 0.91, 1.23, 1.5, 1.74, 1.95, 2.33, ...), half a voxel for surfaces that
+    /// coincide. The default, so that E compares with the paper's tables.
+    #[default]
+    Voxel,
+    /// E to sub-voxel precision: the largest distance from a point on either surface to the
+    /// other ([`ErrorMetrics::max_error_subvoxel`]), 0 for surfaces that coincide. Free of the
+    /// voxel steps, it is the measure for targets of a voxel or less: a voxel-centre E of 1.5
+    /// is reached by surfaces whose points are all within 0.8 voxels of each other.
+    #[serde(rename = "subvoxel")]
+    SubVoxel,
+}
+
+impl ErrorMeasure {
+    /// E by this measure.
+    pub fn of(self, metrics: &ErrorMetrics) -> f32 {
+        match self {
+            ErrorMeasure::Voxel => metrics.max_error,
+            ErrorMeasure::SubVoxel => metrics.max_error_subvoxel,
         }
     }
 }
@@ -185,33 +219,15 @@ pub fn fit(
     let started = Instant::now();
     let grid = *goal.grid();
     let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
-    let constraints = match coarse::CoarseStart::of(goal, options) {
-        Some(start) => {
-            log.totals.signed_distance += started.elapsed().as_secs_f64();
-            let first = init::initial_constraints(&start.goal, options);
-            let stage = iterate(
-                &start.goal,
-                first,
-                &start.options(options),
-                GridLevel::Half,
-                &mut log,
-                &mut on_iteration,
-            )?;
-            stage.constraints.iter().map(|c| start.to_full(c, goal)).collect()
-        }
-        None => init::initial_constraints(goal, options),
-    };
-    let first_full = log.per_iteration.len();
-    let stage = iterate(goal, constraints, options, GridLevel::Full, &mut log, &mut on_iteration)?;
+    let stage = fit_level(goal, options, GridLevel::Full, &mut log, &mut on_iteration)?;
     let Log { per_iteration, mut totals } = log;
-    let best_iteration = first_full + stage.best_iteration;
     let metrics = stage.metrics;
     totals.total = started.elapsed().as_secs_f64();
-    let kept = &per_iteration[best_iteration - 1];
+    let kept = &per_iteration[stage.best_iteration - 1];
     let report = FitReport {
         method: "iterative".into(),
         iterations: per_iteration.len(),
-        best_iteration,
+        best_iteration: stage.best_iteration,
         termination: stage.termination,
         constraints: kept.constraints,
         max_error_voxels: metrics.max_error,
@@ -229,6 +245,32 @@ pub fn fit(
     Ok(Fit { implicit: stage.implicit, report })
 }
 
+/// The fit on `goal`, at grid `level` of the whole fit: the loop from the initial constraints
+/// (5.1), or, on a large grid, from the best constraints of the fit on the goal at half the
+/// resolution (see `coarse.rs`), itself started the same way on a grid large enough.
+fn fit_level(
+    goal: &Goal,
+    options: &FitOptions,
+    level: GridLevel,
+    log: &mut Log,
+    on_iteration: &mut impl FnMut(&IterationReport, &Implicit),
+) -> Result<Stage> {
+    let clock = Instant::now();
+    let coarse = level
+        .coarser()
+        .and_then(|coarser| Some((coarser, coarse::CoarseStart::of(goal, options)?)));
+    let constraints = match coarse {
+        Some((coarser, start)) => {
+            log.totals.signed_distance += clock.elapsed().as_secs_f64();
+            let stage =
+                fit_level(&start.goal, &start.options(options), coarser, log, on_iteration)?;
+            stage.constraints.iter().map(|c| start.to_full(c, goal)).collect()
+        }
+        None => init::initial_constraints(goal, options),
+    };
+    iterate(goal, constraints, options, level, log, on_iteration)
+}
+
 /// The figures of the iterations so far, and the time they took.
 struct Log {
     per_iteration: Vec<IterationReport>,
@@ -239,7 +281,7 @@ struct Log {
 struct Stage {
     implicit: Implicit,
     metrics: ErrorMetrics,
-    /// The best model's iteration, counted from the stage's first.
+    /// The best model's iteration, counted from the fit's first.
     best_iteration: usize,
     termination: Termination,
     /// The constraints of the best model.
@@ -259,6 +301,8 @@ fn iterate(
     let grid = *goal.grid();
     constraints.truncate(options.max_constraints);
     let mut best: Option<(Implicit, ErrorMetrics, usize, usize)> = None;
+    // The best model's iteration, counted from the fit's first.
+    let mut best_in_fit = 0;
     let termination;
     // The lowest RMS so far and the last iteration that improved on E or RMS (5.4).
     let mut best_rms = f32::INFINITY;
@@ -288,8 +332,9 @@ fn iterate(
         on_iteration(&line, &implicit);
         log.per_iteration.push(line);
         add_timings(&mut log.totals, &timings);
-        if best.as_ref().is_none_or(|(_, b, _, _)| better(&metrics, b)) {
+        if best.as_ref().is_none_or(|(_, b, _, _)| better(&metrics, b, options.error_measure)) {
             best = Some((implicit, metrics, iteration, constraints.len()));
+            best_in_fit = number;
         }
         if metrics.rms_error_subvoxel < best_rms * (1.0 - options.min_rms_improvement) {
             last_improvement = iteration;
@@ -325,10 +370,10 @@ fn iterate(
         }
         constraints.extend(added);
     }
-    let (implicit, metrics, best_iteration, count) = best.expect("the loop runs at least once");
+    let (implicit, metrics, _, count) = best.expect("the loop runs at least once");
     // Constraints are only ever appended: the best model's are the first `count`.
     constraints.truncate(count);
-    Ok(Stage { implicit, metrics, best_iteration, termination, constraints })
+    Ok(Stage { implicit, metrics, best_iteration: best_in_fit, termination, constraints })
 }
 
 /// Evaluates `implicit` over the goal's grid (5.2) and measures it against the goal (4.3).
@@ -439,10 +484,11 @@ fn added_limit(count: usize, options: &FitOptions) -> usize {
     growth.max(options.initial_constraints / 2).min(options.max_constraints.saturating_sub(count))
 }
 
-/// Whether `a` is a better model than `b`: smaller E, then smaller RMS (paper 5.4), the RMS
-/// to sub-voxel precision, which separates models that voxel-centre distances would tie.
-fn better(a: &ErrorMetrics, b: &ErrorMetrics) -> bool {
-    (a.max_error, a.rms_error_subvoxel) < (b.max_error, b.rms_error_subvoxel)
+/// Whether `a` is a better model than `b`: smaller E by `measure`, then smaller RMS (paper
+/// 5.4), the RMS to sub-voxel precision, which separates models that voxel-centre distances
+/// would tie.
+fn better(a: &ErrorMetrics, b: &ErrorMetrics, measure: ErrorMeasure) -> bool {
+    (measure.of(a), a.rms_error_subvoxel) < (measure.of(b), b.rms_error_subvoxel)
 }
 
 /// Why the loop stops after this iteration, if it does (paper 5.4). `[iteration, in_fit]`
@@ -456,8 +502,11 @@ fn stop_reason(
     constraint_count: usize,
     options: &FitOptions,
 ) -> Option<Termination> {
-    if metrics.max_error <= options.target_error {
-        Some(Termination::TargetError { target: options.target_error })
+    if options.error_measure.of(metrics) <= options.target_error {
+        Some(Termination::TargetError {
+            target: options.target_error,
+            measure: options.error_measure,
+        })
     } else if metrics.weighted_error <= options.target_weighted_error {
         Some(Termination::TargetWeightedError { target: options.target_weighted_error })
     } else if iteration >= last_improvement + options.patience {
@@ -494,7 +543,30 @@ mod tests {
         let accurate = ErrorMetrics { max_error: 0.4, ..metrics };
         assert_eq!(
             stop_reason(&accurate, [2, 2], 2, 100, &options),
-            Some(Termination::TargetError { target: 2.0 })
+            Some(Termination::TargetError { target: 2.0, measure: ErrorMeasure::Voxel })
         );
+    }
+
+    /// Measured at sub-voxel precision, E reaches a target of 1 voxel that the voxel-centre E
+    /// of the same surfaces (1.5) does not, and the best model is the one with the smaller
+    /// sub-voxel E.
+    #[test]
+    fn the_subvoxel_measure_judges_the_target_and_the_best_model() {
+        let voxel = FitOptions { target_error: 1.0, ..FitOptions::default() };
+        let subvoxel = FitOptions { error_measure: ErrorMeasure::SubVoxel, ..voxel.clone() };
+        let metrics = ErrorMetrics {
+            max_error: 1.5,
+            max_error_subvoxel: 0.9,
+            weighted_error: 1.0,
+            ..Default::default()
+        };
+        assert_eq!(stop_reason(&metrics, [2, 2], 2, 100, &voxel), None);
+        assert_eq!(
+            stop_reason(&metrics, [2, 2], 2, 100, &subvoxel),
+            Some(Termination::TargetError { target: 1.0, measure: ErrorMeasure::SubVoxel })
+        );
+        let other = ErrorMetrics { max_error: 1.23, max_error_subvoxel: 1.1, ..metrics };
+        assert!(better(&other, &metrics, ErrorMeasure::Voxel));
+        assert!(better(&metrics, &other, ErrorMeasure::SubVoxel));
     }
 }

@@ -49,7 +49,7 @@
 
 use std::collections::HashMap;
 
-use super::{FitConstraint, FitOptions, Goal};
+use super::{ErrorMeasure, FitConstraint, FitOptions, Goal};
 use crate::geometry::DVec3;
 use crate::metrics::BoundaryErrors;
 
@@ -57,6 +57,10 @@ use crate::metrics::BoundaryErrors;
 #[derive(Debug, Clone, Copy)]
 struct Candidate {
     constraint: FitConstraint,
+    /// For a current-surface candidate snapped to the goal's surface, the soft constraint at
+    /// the current surface that takes its place where the snapped one is pruned by an existing
+    /// constraint (see [`select`]).
+    fallback: Option<FitConstraint>,
     weighted_error: f32,
     /// Whether the voxel error there, as E measures it, is above the target E.
     above_target: bool,
@@ -75,26 +79,39 @@ pub fn new_constraints(
     existing: &[FitConstraint],
     options: &FitOptions,
 ) -> Vec<FitConstraint> {
-    let min_error = max_error * options.error_fraction;
+    let mut min_error = max_error * options.error_fraction;
+    if std::env::var("X1").is_ok() {
+        min_error = min_error.min(options.target_error);
+    }
     let mut candidates = Vec::new();
     for i in 0..goal_side.voxels.len() {
         let error = goal_side.fine_error(i);
         let weighted = error / goal_side.rreg[i];
-        let above_target = goal_side.error(i) > options.target_error;
+        let above_target = measured_error(goal_side, i, options) > options.target_error;
         if error >= min_error && noticeable(weighted, above_target, options) {
             let position = goal_side.points[i];
             let constraint = FitConstraint { position, value: 0.0, error };
-            candidates.push(Candidate { constraint, weighted_error: weighted, above_target });
+            candidates.push(Candidate {
+                constraint,
+                fallback: None,
+                weighted_error: weighted,
+                above_target,
+            });
         }
     }
     for i in 0..current_side.voxels.len() {
         let error = current_side.fine_error(i);
         // rreg is measured wherever the error reaches `min_error` (see `current_regularity`).
         let weighted = error / current_side.rreg[i];
-        let above_target = current_side.error(i) > options.target_error;
+        let above_target = measured_error(current_side, i, options) > options.target_error;
         if error >= min_error && noticeable(weighted, above_target, options) {
-            let constraint = current_side_constraint(goal, current_side, i, options);
-            candidates.push(Candidate { constraint, weighted_error: weighted, above_target });
+            let (constraint, fallback) = current_side_constraint(goal, current_side, i, options);
+            candidates.push(Candidate {
+                constraint,
+                fallback,
+                weighted_error: weighted,
+                above_target,
+            });
         }
     }
     candidates.sort_by(|a, b| {
@@ -113,6 +130,15 @@ pub fn new_constraints(
     select(&candidates, existing, options)
 }
 
+/// The error at voxel `i` of `side` by the measure the target is set in (see
+/// [`ErrorMeasure`]).
+fn measured_error(side: &BoundaryErrors, i: usize, options: &FitOptions) -> f32 {
+    match options.error_measure {
+        ErrorMeasure::Voxel => side.error(i),
+        ErrorMeasure::SubVoxel => side.fine_error(i),
+    }
+}
+
 /// Rule 4: whether an error is worth a constraint by its weighted error, or, whatever its
 /// weighted error, because the voxel error E measures there is above the target E.
 fn noticeable(weighted_error: f32, above_target: bool, options: &FitOptions) -> bool {
@@ -120,26 +146,40 @@ fn noticeable(weighted_error: f32, above_target: bool, options: &FitOptions) -> 
 }
 
 /// The constraint a current boundary voxel `i` asks for: a boundary constraint at the goal's
-/// surface where the error is at most `snap_distance` and the surface is found, else a soft
-/// constraint at the current surface taking the goal's signed distance there.
+/// surface where the error is at most `snap_distance` and the surface is found, with the soft
+/// constraint as its fallback; else the soft constraint at the current surface taking the goal's
+/// signed distance there.
 fn current_side_constraint(
     goal: &Goal,
     current_side: &BoundaryErrors,
     i: usize,
     options: &FitOptions,
-) -> FitConstraint {
+) -> (FitConstraint, Option<FitConstraint>) {
     let position = current_side.points[i];
     let value = f64::from(current_side.other_fine_sd[i]);
     let error = current_side.fine_error(i);
+    let soft = FitConstraint { position, value, error };
     let snapped =
         (value.abs() <= options.snap_distance).then(|| goal.project_to_surface(position)).flatten();
     match snapped {
-        Some(position) => FitConstraint { position, value: 0.0, error },
-        None => FitConstraint { position, value, error },
+        Some(position) => (FitConstraint { position, value: 0.0, error }, Some(soft)),
+        None => (soft, None),
     }
 }
 
 /// Applies the two distance rules, greatest error first.
+///
+/// A snapped candidate (see `current_side_constraint`) pruned by an existing constraint gives
+/// way to its soft constraint, which the rules then judge in its place. Where the current
+/// surface bulges past a sharp part of the goal (an ear's tip, the rim of the bunny's open
+/// base), the nearest point of the goal's surface is that sharp part, where a boundary
+/// constraint already holds the surface; what the bulge needs is the value the paper gives it,
+/// the goal's signed distance at the bulge.
+///
+/// Where the target is set on the sub-voxel E ([`ErrorMeasure::SubVoxel`]), the spacing of
+/// rule 2 is `min_constraint_spacing` or the target, whichever is smaller: a fit asked for
+/// errors below two voxels needs constraints closer than two voxels where the surface turns
+/// sharply.
 fn select(
     candidates: &[Candidate],
     existing: &[FitConstraint],
@@ -148,27 +188,38 @@ fn select(
     let Some(first) = candidates.first() else {
         return Vec::new();
     };
+    let spacing = match options.error_measure {
+        ErrorMeasure::Voxel => options.min_constraint_spacing,
+        ErrorMeasure::SubVoxel => {
+            options.min_constraint_spacing.min(f64::from(options.target_error))
+        }
+    }
+    .max(1e-9);
     // An added constraint keeps candidates within `added_spacing_factor` times its error, and no
     // error exceeds the first (greatest) candidate's.
     let reach = (options.added_spacing_factor * f64::from(first.constraint.error)).max(1e-9);
     let mut added_cells = Cells::new(reach);
-    let existing_cells = Cells::of(
-        options.min_constraint_spacing.max(1e-9),
-        existing.iter().map(|e| (e.position, e.error)),
-    );
+    let existing_cells = Cells::of(spacing, existing.iter().map(|e| (e.position, e.error)));
     let mut added: Vec<FitConstraint> = Vec::new();
     for candidate in candidates {
+        let near_added = |c: &FitConstraint| {
+            added_cells.near(c.position).any(|(p, error)| {
+                p.distance(c.position) < options.added_spacing_factor * f64::from(error)
+            })
+        };
+        let near_existing = |c: &FitConstraint| {
+            existing_cells.near(c.position).any(|(p, _)| p.distance(c.position) < spacing)
+        };
         let c = candidate.constraint;
-        let near_added = added_cells.near(c.position).any(|(p, error)| {
-            p.distance(c.position) < options.added_spacing_factor * f64::from(error)
-        });
-        if near_added {
+        if near_added(&c) {
             continue;
         }
-        let near_existing = existing_cells
-            .near(c.position)
-            .any(|(p, _)| p.distance(c.position) < options.min_constraint_spacing);
-        if !near_existing {
+        let kept = if near_existing(&c) {
+            candidate.fallback.filter(|soft| !near_added(soft) && !near_existing(soft))
+        } else {
+            Some(c)
+        };
+        if let Some(c) = kept {
             added_cells.insert(c.position, c.error);
             added.push(c);
         }
@@ -304,6 +355,7 @@ mod tests {
                     value: 0.0,
                     error: 0.5 + (k % 37) as f32 * 0.1,
                 },
+                fallback: None,
                 weighted_error: 1.0,
                 above_target: true,
             })
@@ -324,5 +376,42 @@ mod tests {
         }
         assert!(expected.len() > 10);
         assert_eq!(select(&candidates, &existing, &options), expected);
+    }
+
+    /// A current-surface candidate 2.4 voxels outside a flat goal surface snaps to it, unless
+    /// an existing constraint holds the surface there: then its soft constraint, at the current
+    /// surface with the goal's signed distance, is added in its place.
+    #[test]
+    fn a_snapped_candidate_pruned_by_an_existing_constraint_gives_way_to_its_soft_one() {
+        let grid = Grid { dims: [12, 12, 12], origin: [0.0; 3], voxel_size: 1.0 };
+        let mut density = Volume::filled(grid, 0.0f32);
+        for (n, d) in density.data.iter_mut().enumerate() {
+            *d = if grid.voxel(n)[0] <= 4 { 1.0 } else { 0.0 };
+        }
+        let goal = Goal::from_density(density, &RegularityOptions::default());
+        let bulge = DVec3::new(6.9, 6.0, 6.0);
+        let current = BoundaryErrors {
+            voxels: vec![[7, 6, 6]],
+            other_sd: vec![2.4],
+            rreg: vec![1.0],
+            points: vec![bulge],
+            other_fine_sd: vec![-2.4],
+        };
+        let none = BoundaryErrors::default();
+        let options = FitOptions::default();
+        let added = |existing: &[FitConstraint]| {
+            new_constraints(&goal, &none, &current, 2.4, existing, &options)
+        };
+        let snapped = added(&[]);
+        assert_eq!(snapped.len(), 1);
+        assert_eq!(snapped[0].value, 0.0);
+        assert!((snapped[0].position - DVec3::new(4.5, 6.0, 6.0)).length() < 0.1);
+        let holding = FitConstraint { position: DVec3::new(4.5, 6.5, 6.0), value: 0.0, error: 0.0 };
+        let soft = added(&[holding]);
+        let value = f64::from(-2.4f32);
+        assert_eq!(soft, [FitConstraint { position: bulge, value, error: 2.4 }]);
+        // A soft constraint itself too close to an existing one is pruned with its candidate.
+        let closer = FitConstraint { position: DVec3::new(6.0, 6.0, 6.0), ..holding };
+        assert!(added(&[holding, closer]).is_empty());
     }
 }

@@ -62,6 +62,10 @@ pub enum GridLevel {
     Full,
     /// Half its resolution (the coarse start): voxels twice the size.
     Half,
+    /// A quarter of its resolution (the coarse start of a grid of 512 voxels or more).
+    Quarter,
+    /// An eighth of its resolution (the coarse start of a grid of 2048 voxels or more).
+    Eighth,
 }
 
 impl GridLevel {
@@ -70,6 +74,28 @@ impl GridLevel {
         match self {
             GridLevel::Full => 1.0,
             GridLevel::Half => 2.0,
+            GridLevel::Quarter => 4.0,
+            GridLevel::Eighth => 8.0,
+        }
+    }
+
+    /// The level of half this one's resolution, if there is one.
+    pub fn coarser(self) -> Option<GridLevel> {
+        match self {
+            GridLevel::Full => Some(GridLevel::Half),
+            GridLevel::Half => Some(GridLevel::Quarter),
+            GridLevel::Quarter => Some(GridLevel::Eighth),
+            GridLevel::Eighth => None,
+        }
+    }
+
+    /// How the progress line names this level: nothing for the full grid.
+    fn label(self) -> &'static str {
+        match self {
+            GridLevel::Full => "",
+            GridLevel::Half => "  (half resolution)",
+            GridLevel::Quarter => "  (quarter resolution)",
+            GridLevel::Eighth => "  (eighth resolution)",
         }
     }
 }
@@ -127,7 +153,7 @@ impl IterationReport {
     /// One line for the terminal: iteration, constraints, E, Ew, RMS, time, and the grid if it
     /// is not the full one.
     pub fn line(&self) -> String {
-        let grid = if self.grid == GridLevel::Half { "  (half resolution)" } else { "" };
+        let grid = self.grid.label();
         format!(
             "iteration {:>3}  constraints {:>5} ({} zero, {} in, {} out)  E {:>6.2} ({:.2})  Ew {:>6.3}  RMS {:>6.3} ({:.3})  {:>6.2} s{grid}",
             self.iteration,
@@ -154,6 +180,8 @@ pub enum Termination {
     TargetError {
         /// The target E, voxels.
         target: f32,
+        /// How E was measured.
+        measure: super::ErrorMeasure,
     },
     /// Ew reached the target.
     TargetWeightedError {
@@ -184,8 +212,11 @@ pub enum Termination {
 impl std::fmt::Display for Termination {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Termination::TargetError { target } => {
+            Termination::TargetError { target, measure: super::ErrorMeasure::Voxel } => {
                 write!(f, "E reached the target of {target} voxels")
+            }
+            Termination::TargetError { target, measure: super::ErrorMeasure::SubVoxel } => {
+                write!(f, "the sub-voxel E reached the target of {target} voxels")
             }
             Termination::TargetWeightedError { target } => {
                 write!(f, "Ew reached the target of {target}")
