@@ -300,12 +300,12 @@ fn iterate(
 ) -> Result<Stage> {
     let grid = *goal.grid();
     constraints.truncate(options.max_constraints);
-    let mut best: Option<(Implicit, ErrorMetrics, usize, usize)> = None;
+    let mut best: Option<(Implicit, ErrorMetrics, usize)> = None;
     // The best model's iteration, counted from the fit's first.
     let mut best_in_fit = 0;
     let termination;
-    // The lowest RMS so far and the last iteration that improved on E or RMS (5.4).
-    let mut best_rms = f32::INFINITY;
+    // The lowest E and RMS so far and the last iteration that improved on either (5.4).
+    let (mut lowest_error, mut best_rms) = (f32::INFINITY, f32::INFINITY);
     let mut last_improvement = 1;
     let mut iteration = 0;
     // The last model, whose weights start the next solve where it is iterative.
@@ -332,17 +332,18 @@ fn iterate(
         on_iteration(&line, &implicit);
         log.per_iteration.push(line);
         add_timings(&mut log.totals, &timings);
-        if best.as_ref().is_none_or(|(_, b, _, _)| better(&metrics, b, options.error_measure)) {
-            best = Some((implicit, metrics, iteration, constraints.len()));
+        if best.as_ref().is_none_or(|(_, b, _)| better(&metrics, b, options.error_measure)) {
+            best = Some((implicit, metrics, constraints.len()));
             best_in_fit = number;
         }
-        if metrics.rms_error_subvoxel < best_rms * (1.0 - options.min_rms_improvement) {
+        let error = options.error_measure.of(&metrics);
+        if error < lowest_error
+            || metrics.rms_error_subvoxel < best_rms * (1.0 - options.min_rms_improvement)
+        {
             last_improvement = iteration;
         }
+        lowest_error = lowest_error.min(error);
         best_rms = best_rms.min(metrics.rms_error_subvoxel);
-        if best.as_ref().is_some_and(|b| b.2 == iteration) {
-            last_improvement = iteration;
-        }
         if let Some(reason) = stop_reason(
             &metrics,
             [iteration, log.per_iteration.len()],
@@ -370,7 +371,7 @@ fn iterate(
         }
         constraints.extend(added);
     }
-    let (implicit, metrics, _, count) = best.expect("the loop runs at least once");
+    let (implicit, metrics, count) = best.expect("the loop runs at least once");
     // Constraints are only ever appended: the best model's are the first `count`.
     constraints.truncate(count);
     Ok(Stage { implicit, metrics, best_iteration: best_in_fit, termination, constraints })
