@@ -48,14 +48,14 @@ impl CoarseStart {
     }
 
     /// The options of the loop at half the resolution: its target is the coarse start's, in
-    /// its own voxels and measured at voxel centres, its growth per iteration the coarse start's, and it leaves at least a
-    /// quarter of the iterations to the full grid (an iteration at half the resolution costs
-    /// about an eighth of one on the full grid). Only a lower E counts as progress there (an RMS
-    /// error 100% lower, never): once E stops falling for `patience` iterations, the next grid
-    /// takes over, where the same constraints measure finer errors. It has a coarse start of its own only from
-    /// twice the axis that gave it one, so that no level is shorter than
-    /// `coarse_start_min_axis / 2` along its longest axis: a grid of 512 voxels starts at 128,
-    /// one of 337 at 169.
+    /// its own voxels and measured at voxel centres, its growth per iteration the coarse
+    /// start's, and it leaves at least a quarter of the iterations to the full grid (an
+    /// iteration at half the resolution costs about an eighth of one on the full grid). Only a
+    /// lower E counts as progress there (an RMS error 100% lower, never): once E stops falling
+    /// for `patience` iterations, the next grid takes over, where the same constraints measure
+    /// finer errors. It has a coarse start of its own only from twice the axis that gave it
+    /// one, so that no level is shorter than `coarse_start_min_axis / 2` along its longest
+    /// axis: a grid of 512 voxels starts at 128, one of 337 at 169.
     pub fn options(&self, options: &FitOptions) -> FitOptions {
         let target = options.coarse_target_error.max(options.target_error);
         FitOptions {
