@@ -8,7 +8,7 @@ fn implicitize() -> Command {
 }
 
 fn triceratops() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/triceratops.obj"))
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/triceratops.obj"))
 }
 
 #[test]

@@ -133,7 +133,7 @@ pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
 }
 
 /// The built-in default model, compiled into the binary (see data/README.md).
-const TRICERATOPS_OBJ: &[u8] = include_bytes!("../../data/triceratops.obj");
+const TRICERATOPS_OBJ: &[u8] = include_bytes!("../../../../data/triceratops.obj");
 
 /// Arguments of `implicitize demo`.
 #[derive(Debug, Args)]
