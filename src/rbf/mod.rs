@@ -46,16 +46,19 @@
 //! growth of `r^2 log r` cancels against the polynomial), so its terms are orders of magnitude
 //! larger than the result. f32 lanes would leave an error near `1e-7 sum_j |d_j phi_j|`, far
 //! above the `1e-6` relative agreement the fit and the peer comparison need; f64 keeps it near
-//! `1e-15` of that sum. Points are evaluated eight at a time, one per vector lane, against
-//! centres stored axis by axis (SoA); `r^2 log r = 0.5 r^2 ln(r^2)` needs no square root, and the
-//! logarithm is fdlibm's (error below one ulp) written branch-free so that it vectorizes. The
-//! loops are compiled for AVX-512, AVX2 + FMA and the baseline target, and the best the CPU
-//! supports is chosen at run time. Blocks of points are spread over threads with rayon.
+//! `1e-15` of that sum. Points are evaluated sixteen at a time (two AVX-512 vectors of 8 lanes,
+//! four AVX2 ones of 4), against centres stored axis by axis (SoA); `r^2 log r = 0.5 r^2
+//! ln(r^2)` needs no square root, and the logarithm is fdlibm's reduction and series (within 3
+//! ulps of std's) written branch-free so that it vectorizes. The loops are compiled for
+//! AVX-512, AVX2 + FMA and the baseline target, and the best the CPU supports is chosen at run
+//! time ([`Isa`]; `IMPLICITIZE_ISA` forces one). Blocks of points are spread over threads with
+//! rayon.
 
 mod csv;
 mod evaluate;
 mod gmres;
 mod grid;
+mod isa;
 mod iterative;
 mod schwarz;
 mod solve;
@@ -69,6 +72,7 @@ use crate::geometry::DVec3;
 
 pub use csv::{read_constraints, read_points};
 pub use grid::evaluate_on_grid;
+pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};
 pub use solve::{DIRECT_MAX, MAX_RESIDUAL, MIN_SEPARATION};
 
 /// The radial basis function `phi(r)` of a variational implicit function.
