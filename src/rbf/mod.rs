@@ -297,6 +297,24 @@ impl Implicit {
         evaluate::gradient_at(self, x)
     }
 
+    /// The typical gradient magnitude of the function at its surface, in value units per mesh
+    /// unit: dividing by it makes values approximate signed distances in mesh units (what CSG
+    /// and morphing compare). The median of `|grad f|` over the boundary constraints (over
+    /// every constraint when there is no boundary constraint), in every dimension the function
+    /// has; 1 for a degenerate function whose median is zero or not finite.
+    pub fn distance_scale(&self) -> f64 {
+        let constraints = self.constraints();
+        let boundary: Vec<_> = constraints.iter().filter(|c| c.value() == 0.0).collect();
+        let sites = if boundary.is_empty() { constraints.iter().collect() } else { boundary };
+        let mut slopes: Vec<f64> = sites
+            .iter()
+            .map(|c| self.gradient_at(c.position()).iter().map(|g| g * g).sum::<f64>().sqrt())
+            .collect();
+        slopes.sort_unstable_by(f64::total_cmp);
+        let median = slopes.get(slopes.len() / 2).copied().unwrap_or(1.0);
+        if median.is_finite() && median > 0.0 { median } else { 1.0 }
+    }
+
     /// The values at many 3D points (a 2D function reads x and y, a 4D one takes `t = 0`), in
     /// parallel and vectorized. Positive inside, negative outside. Many points of a 3D function
     /// of many centres are summed by a treecode, within `1e-5` of the value range of the exact
