@@ -12,15 +12,15 @@
 //! ```
 //!
 //! and more than two children fold left to right (`a - b - c` for a difference). A
-//! [`Composite`] is such a tree of models and operators; it is a [`Field`] like any model, and
-//! [`crate::Model`] holds one as [`crate::model::Shape::Csg`], so `eval`, `mesh` and rendering
-//! read it like a fitted model. Children are models themselves, so trees nest.
+//! [`Composite`] is such a tree of shapes and operators; it is a [`Field`] like any model, and
+//! [`crate::Model`] holds one as [`Shape::Csg`], so `eval`, `mesh` and rendering read it like a
+//! fitted model. Each child is a [`Shape`] with its bounds, so trees nest.
 //!
 //! ## Comparable scales
 //! A fitted function is only defined up to its values at the constraints, so two models can
 //! differ in slope by a large factor, and `max(a, b)` would then follow the steeper one far
 //! from where the shapes meet. Each child is divided by its *distance scale*
-//! ([`distance_scale`]): the median gradient magnitude of its function at its own boundary
+//! ([`Shape::distance_scale`]): the median gradient magnitude of its function at its own boundary
 //! constraints. Near the surface the divided function then changes by about one per mesh unit,
 //! so its values approximate signed distances in mesh units, and a fillet radius in mesh units
 //! means the same thing on both shapes. The scale is stored with each child in the model file,
@@ -58,7 +58,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
-use crate::model::{Model, Shape};
+use crate::shape::Shape;
 
 /// A boolean operation on shapes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -107,35 +107,43 @@ impl fmt::Display for Operation {
     }
 }
 
-/// One operand of a composite: a model and the distance scale its values are divided by.
+/// One operand of a composite: a shape, its bounds (mesh units) and the distance scale its
+/// values are divided by.
 #[derive(Debug, Clone)]
 pub struct Child {
-    model: Model,
+    shape: Shape,
+    bounds: Aabb,
     scale: f64,
 }
 
 impl Child {
-    /// `model` divided by its [`distance_scale`].
-    pub fn new(model: Model) -> Child {
-        let scale = distance_scale(model.shape());
-        Child { model, scale }
+    /// `shape`, whose inside lies in `bounds`, divided by its [`Shape::distance_scale`]. A
+    /// [`crate::Model`] converts into a child with `Child::from(model)`.
+    pub fn new(shape: Shape, bounds: Aabb) -> Child {
+        let scale = shape.distance_scale();
+        Child { shape, bounds, scale }
     }
 
-    /// `model` divided by `scale`, as read from a model file. `context` names the source for
-    /// errors: the scale must be finite and positive.
-    pub fn with_scale(context: &str, model: Model, scale: f64) -> Result<Child> {
+    /// `shape` in `bounds` divided by `scale`, as read from a model file. `context` names the
+    /// source for errors: the scale must be finite and positive.
+    pub fn with_scale(context: &str, shape: Shape, bounds: Aabb, scale: f64) -> Result<Child> {
         if !(scale.is_finite() && scale > 0.0) {
             return Err(Error::invalid(
                 context,
                 format!("the distance scale {scale} is not finite and positive"),
             ));
         }
-        Ok(Child { model, scale })
+        Ok(Child { shape, bounds, scale })
     }
 
-    /// The model.
-    pub fn model(&self) -> &Model {
-        &self.model
+    /// The shape.
+    pub fn shape(&self) -> &Shape {
+        &self.shape
+    }
+
+    /// The bounds of the shape's inside, mesh units.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
     }
 
     /// The distance scale: the child's values are divided by it.
@@ -180,9 +188,9 @@ impl Composite {
                 format!("the blend radius {blend} is not a finite number >= 0"),
             ));
         }
-        let dim = children[0].model.dim();
+        let dim = children[0].shape.dim();
         for (i, child) in children.iter().enumerate() {
-            let d = child.model.dim();
+            let d = child.shape.dim();
             if d == 4 {
                 return Err(Error::invalid(
                     context,
@@ -230,7 +238,7 @@ impl Composite {
     /// # Errors
     /// An intersection of children whose bounds do not overlap: its inside is empty.
     pub fn bounds(&self) -> Result<Aabb> {
-        let mut boxes = self.children.iter().map(|c| c.model.bounds());
+        let mut boxes = self.children.iter().map(|c| c.bounds);
         let first = boxes.next().expect("a composite has at least two children");
         Ok(match self.operation {
             Operation::Union => {
@@ -288,7 +296,7 @@ fn smooth_min(a: f64, b: f64, k: f64) -> (f64, f64) {
 impl Field for Composite {
     /// The combined value: positive inside, negative outside.
     fn value(&self, p: DVec3) -> f64 {
-        let mut values = self.children.iter().map(|c| c.model.value(p) / c.scale);
+        let mut values = self.children.iter().map(|c| c.shape.value(p) / c.scale);
         let first = values.next().expect("a composite has at least two children");
         values.fold(first, |acc, b| self.step(acc, b).0)
     }
@@ -298,13 +306,13 @@ impl Field for Composite {
     fn gradient(&self, p: DVec3) -> DVec3 {
         let mut children = self.children.iter();
         let first = children.next().expect("a composite has at least two children");
-        let mut acc = first.model.value(p) / first.scale;
-        let mut grad = first.model.gradient(p) / first.scale;
+        let mut acc = first.shape.value(p) / first.scale;
+        let mut grad = first.shape.gradient(p) / first.scale;
         for c in children {
-            let b = c.model.value(p) / c.scale;
+            let b = c.shape.value(p) / c.scale;
             let (v, h) = self.step(acc, b);
             if h < 1.0 {
-                let gb = self.sign() * c.model.gradient(p) / c.scale;
+                let gb = self.sign() * c.shape.gradient(p) / c.scale;
                 grad = h * grad + (1.0 - h) * gb;
             }
             acc = v;
@@ -317,9 +325,9 @@ impl Field for Composite {
         let mut children = self.children.iter();
         let first = children.next().expect("a composite has at least two children");
         let mut acc: Vec<f64> =
-            first.model.values(points).into_iter().map(|v| v / first.scale).collect();
+            first.shape.values(points).into_iter().map(|v| v / first.scale).collect();
         for c in children {
-            for (a, b) in acc.iter_mut().zip(c.model.values(points)) {
+            for (a, b) in acc.iter_mut().zip(c.shape.values(points)) {
                 *a = self.step(*a, b / c.scale).0;
             }
         }
@@ -331,29 +339,6 @@ impl Field for Composite {
     /// keeps the children's surfaces; points a child has inside another shape are not on the
     /// composite's surface, which costs polygonization only the cubes around them.
     fn surface_points(&self) -> Vec<DVec3> {
-        self.children.iter().flat_map(|c| c.model.surface_points()).collect()
+        self.children.iter().flat_map(|c| c.shape.surface_points()).collect()
     }
-}
-
-/// The typical gradient magnitude of a shape's function at its surface, in value units per
-/// mesh unit: dividing by it makes values approximate signed distances in mesh units.
-///
-/// For a variational implicit function, the median of `|grad f|` over its boundary constraints
-/// (over every constraint when it has no boundary constraint), in the dimensions it has (a 4D
-/// function counts all four). A composite is already scaled, so its scale is 1. A degenerate
-/// function whose median gradient is zero or not finite gets 1.
-pub fn distance_scale(shape: &Shape) -> f64 {
-    let Shape::Rbf(implicit) = shape else {
-        return 1.0;
-    };
-    let constraints = implicit.constraints();
-    let boundary: Vec<_> = constraints.iter().filter(|c| c.value() == 0.0).collect();
-    let sites = if boundary.is_empty() { constraints.iter().collect() } else { boundary };
-    let mut slopes: Vec<f64> = sites
-        .iter()
-        .map(|c| implicit.gradient_at(c.position()).iter().map(|g| g * g).sum::<f64>().sqrt())
-        .collect();
-    slopes.sort_unstable_by(f64::total_cmp);
-    let median = slopes.get(slopes.len() / 2).copied().unwrap_or(1.0);
-    if median.is_finite() && median > 0.0 { median } else { 1.0 }
 }

@@ -1,10 +1,70 @@
 //! # implicitize
 //!
-//! Turns a polygon mesh into a compact, smooth variational implicit surface, following
-//! Morse, Yoo, Rheingans, Chen and Subramanian, "Creating implicit surfaces from polygonal
-//! meshes" (Graphics Interface 1999 / tech. report), and lets you use that surface.
+//! Turns a polygon mesh into a compact, smooth variational implicit surface (a few hundred
+//! radial basis functions plus a linear polynomial), following Gary Yngve and Greg Turk,
+//! "Creating implicit surfaces from polygonal meshes" (Georgia Institute of Technology, 1999;
+//! journal version "Robust creation of implicit surfaces from polygonal meshes", IEEE
+//! Transactions on Visualization and Computer Graphics, 2002), and lets you use that surface:
+//! evaluate it, polygonize it, render, combine and morph it.
 //!
-//! The pipeline flows one way, one module per stage:
+//! ## Quick start
+//! One call fits a mesh ([`fit_mesh`], or [`fit_file`] from a path); the model is a [`Field`]:
+//!
+//! ```
+//! use implicitize::{DVec3, Field, MeshFitOptions, Resolution, fit_mesh, mesh, polygonize_field};
+//!
+//! # fn main() -> implicitize::Result<()> {
+//! // A mesh from a file (OBJ, PLY, STL or OFF); here the repository's triceratops.
+//! let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj");
+//! let (triceratops, _repairs) = mesh::read(&path)?;
+//!
+//! // Fit it on a small grid: 40 voxels along its longest axis, a few iterations.
+//! let mut options = MeshFitOptions { resolution: Resolution::LongestAxis(40), ..Default::default() };
+//! options.fit.max_iterations = 6;
+//! let fitted = fit_mesh(&triceratops, &options)?;
+//! println!("E = {:.2} voxels", fitted.report.max_error_voxels);
+//!
+//! // Evaluate it: positive inside, negative outside, in the mesh's units.
+//! let bounds = fitted.model.bounds();
+//! let far = bounds.max + bounds.size();
+//! assert!(fitted.model.value(far) < 0.0);
+//! let values = fitted.model.values(&[bounds.center(), far]);
+//! assert_eq!(values.len(), 2);
+//!
+//! // Polygonize its zero set on the grid it was fitted on.
+//! let grid = fitted.model.grid().expect("a fitted model keeps its grid");
+//! let surface = polygonize_field(&fitted.model, grid);
+//! assert!(!surface.triangles.is_empty());
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! The same for the signed distance volume of a mesh: [`pipeline::signed_distance_of_mesh`].
+//!
+//! ## Guarantees
+//! * **Sign:** inside is positive and outside negative, as in the paper, for every value this
+//!   crate returns: implicit function values, signed distance volumes, constraint values.
+//! * **Units:** positions are in the mesh's own units everywhere (constraints, bounds, model
+//!   files); errors (E, Ew, RMS) are in voxels of the fit's grid, and E also in mesh units.
+//!   Everything is normalized internally, so a mesh scaled by 1000 and moved far from the
+//!   origin gives the same fit in voxels.
+//! * **Determinism:** every random choice comes from a generator seeded by
+//!   [`fit::FitOptions::seed`] (default 1): the same mesh, options and seed give the same model,
+//!   bit for bit, on the same instruction set (see [`rbf::Isa`]; the environment variable
+//!   `IMPLICITIZE_ISA` forces one).
+//! * **Errors, not panics:** user input (files, meshes, options) never panics; every error
+//!   ([`Error`]) names the file or the input and what was wrong.
+//!
+//! ## Limits
+//! * Features thinner than a voxel are lost in voxelization, and a detached piece of the
+//!   current surface smaller than 4 voxels far from the goal can be missed by the
+//!   coarse-to-fine evaluation (paper 5.2), as in the paper.
+//! * Dense volumes of the whole grid are kept during a fit: memory and time grow with the
+//!   grid's voxels (a fit at 512 voxels along the longest axis takes minutes and gigabytes).
+//! * Open meshes are closed as the generalized winding number closes them.
+//!
+//! ## Stages
+//! The pipeline flows one way, one module per stage; [`pipeline`] chains them.
 //!
 //! | stage | module | paper |
 //! |---|---|---|
@@ -13,25 +73,23 @@
 //! | voxelize: densities, robust inside/outside | [`voxelize`] | 4.1 |
 //! | signed distance, boundary voxels, surface points | [`distance`] | 4.2, 5.1, 5.3 |
 //! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
-//! | save and load models | [`model`] | |
 //! | error metrics E, Ew, RMS and the radius of regularity | [`metrics`] | 4.3 |
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
-//! | a 2D goal from a PNG image; figure 2 of a 2D fit | [`goal2d`], [`figure2`] | figure 2 |
+//! | a mesh to a fitted model in one call | [`pipeline`] | |
+//! | the shapes a model holds; save and load models | [`shape`], [`model`] | |
+//! | a 2D goal from a PNG image; figures 2 and 3 | [`goal2d`], [`figure2`], [`figure3`] | 4.3 |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
 //! | combine models: union, intersection, difference | [`csg`] | 1 |
 //! | morph one model into another | [`morph`] | 1, 7 |
-//!
-//! ## Sign convention
-//! Inside is positive and outside negative, as in the paper, for every value this crate
-//! returns: implicit function values and signed distance volumes alike.
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod csg;
 pub mod distance;
 pub mod error;
 pub mod field;
 pub mod figure2;
+pub mod figure3;
 pub mod fit;
 pub mod geometry;
 pub mod goal2d;
@@ -41,9 +99,11 @@ pub mod metrics;
 pub mod model;
 pub mod morph;
 pub mod npy;
+pub mod pipeline;
 pub mod polygonize;
 pub mod rbf;
 pub mod render;
+pub mod shape;
 pub mod voxelize;
 
 pub use error::{Error, Result};
@@ -52,5 +112,6 @@ pub use geometry::{Aabb, DVec3};
 pub use grid::{Grid, Resolution, Volume};
 pub use mesh::Mesh;
 pub use model::Model;
+pub use pipeline::{Fitted, MeshFitOptions, fit_file, fit_mesh};
 pub use polygonize::{polygonize, polygonize_field};
 pub use rbf::{Constraint, ConstraintKind, Implicit, Kernel};

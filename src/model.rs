@@ -65,6 +65,7 @@ use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
 use crate::grid::Grid;
 use crate::rbf::{Constraint, ConstraintKind, Implicit, Kernel, Normalization};
+use crate::shape::Shape;
 
 /// The `format` field of every model file.
 pub const FORMAT: &str = "implicitize-model";
@@ -74,33 +75,6 @@ pub const VERSION: u32 = 1;
 
 /// The `sign` field: the sign convention of every value the model gives.
 pub const SIGN: &str = "inside positive, outside negative";
-
-/// The shape a model describes.
-#[derive(Debug, Clone)]
-#[non_exhaustive]
-pub enum Shape {
-    /// A variational implicit function.
-    Rbf(Implicit),
-    /// A CSG tree of models (see [`crate::csg`]).
-    Csg(Composite),
-}
-
-impl Shape {
-    fn field(&self) -> &dyn Field {
-        match self {
-            Shape::Rbf(implicit) => implicit,
-            Shape::Csg(composite) => composite,
-        }
-    }
-
-    /// The number of coordinates the shape reads: 2, 3 or 4 (space-time).
-    pub fn dim(&self) -> usize {
-        match self {
-            Shape::Rbf(implicit) => implicit.dim(),
-            Shape::Csg(composite) => composite.dim(),
-        }
-    }
-}
 
 /// A fitted shape with its bounds, the grid it was fitted on and the fit report.
 #[derive(Debug, Clone)]
@@ -133,10 +107,7 @@ impl Model {
 
     /// The variational implicit function, when the shape is one.
     pub fn implicit(&self) -> Option<&Implicit> {
-        match &self.shape {
-            Shape::Rbf(implicit) => Some(implicit),
-            Shape::Csg(_) => None,
-        }
+        self.shape.implicit()
     }
 
     /// The number of coordinates the model reads: 2, 3 or 4 (space-time).
@@ -218,6 +189,14 @@ impl Model {
         let shape = file.shape.into_shape(&context)?;
         let bounds = file.bounds.into_aabb(&context)?;
         Ok(Model { shape, bounds, grid: file.grid, report: file.report })
+    }
+}
+
+/// A model as a CSG child: its shape and bounds, divided by its distance scale; its fit grid
+/// and report stay in its own file.
+impl From<Model> for Child {
+    fn from(model: Model) -> Child {
+        Child::new(model.shape, model.bounds)
     }
 }
 
@@ -333,8 +312,8 @@ impl CsgFile {
                 .iter()
                 .map(|c| ChildFile {
                     scale: c.scale(),
-                    bounds: BoundsFile::of(&c.model().bounds()),
-                    shape: ShapeFile::of(c.model().shape()),
+                    bounds: BoundsFile::of(&c.bounds()),
+                    shape: ShapeFile::of(c.shape()),
                 })
                 .collect(),
         }
@@ -349,8 +328,7 @@ impl CsgFile {
                 let here = format!("{context}: csg child {}", i + 1);
                 let shape = child.shape.into_shape(&here)?;
                 let bounds = child.bounds.into_aabb(&here)?;
-                let model = Model { shape, bounds, grid: None, report: None };
-                Child::with_scale(&here, model, child.scale)
+                Child::with_scale(&here, shape, bounds, child.scale)
             })
             .collect::<Result<Vec<_>>>()?;
         Composite::new(context, self.op, self.blend, children)

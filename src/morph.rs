@@ -29,7 +29,8 @@
 //!
 //! ## Comparable scales
 //! Both methods first divide each model's values by its distance scale
-//! ([`crate::csg::distance_scale`]: the median gradient magnitude at its boundary constraints),
+//! ([`crate::shape::Shape::distance_scale`]: the median gradient magnitude at its boundary
+//! constraints),
 //! so both functions approximate signed distances in mesh units near their surfaces and neither
 //! dominates the blend because it happens to be steeper.
 //!
@@ -46,12 +47,12 @@
 
 use rayon::prelude::*;
 
-use crate::csg::distance_scale;
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
-use crate::model::{Model, Shape};
+use crate::model::Model;
 use crate::rbf::{Constraint, Implicit, Kernel};
+use crate::shape::Shape;
 
 /// How the in-between shapes are made.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -233,12 +234,12 @@ impl Morph {
         Ok(Morph {
             source: Placed {
                 model: source.clone(),
-                scale: distance_scale(source.shape()),
+                scale: source.shape().distance_scale(),
                 placement: Similarity::IDENTITY,
             },
             target: Placed {
                 model: target.clone(),
-                scale: distance_scale(target.shape()),
+                scale: target.shape().distance_scale(),
                 placement,
             },
             space_time,
@@ -288,7 +289,7 @@ fn space_time(
             ));
         }
     };
-    let factor = placement.scale / distance_scale(model.shape());
+    let factor = placement.scale / model.shape().distance_scale();
     Ok(implicit
         .constraints()
         .iter()

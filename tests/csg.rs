@@ -1,68 +1,26 @@
 //! Constructive solid geometry on implicit models (paper 1): signs, smooth blends, surfaces,
-//! the model file and the command line.
+//! the model file.
 
+#[path = "common/balls.rs"]
+mod balls;
 #[path = "common/topology.rs"]
 mod topology;
 
-use std::path::Path;
-use std::process::Command;
-
-use implicitize::csg::{Child, Composite, Operation, distance_scale};
-use implicitize::model::{Model, Shape};
-use implicitize::rbf::{Constraint, Implicit, Kernel};
+use implicitize::csg::{Child, Composite, Operation};
+use implicitize::model::Model;
+use implicitize::shape::Shape;
 use implicitize::{Aabb, DVec3, Field, Grid, Resolution, polygonize};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// Points spread evenly over the unit sphere (a Fibonacci lattice).
-fn sphere_directions(n: usize) -> Vec<DVec3> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let a = golden * i as f64;
-            DVec3::new(r * a.cos(), r * a.sin(), z)
-        })
-        .collect()
-}
-
-/// A ball solved from analytic constraints: boundary points, the centre inside and a shell of
-/// points outside, with signed distances as values multiplied by `value_scale`.
-fn ball(center: DVec3, radius: f64, value_scale: f64) -> Model {
-    let mut constraints: Vec<Constraint> = sphere_directions(80)
-        .iter()
-        .map(|d| Constraint::new(&(center + *d * radius).to_array(), 0.0))
-        .collect();
-    constraints.push(Constraint::new(&center.to_array(), radius * value_scale));
-    for d in sphere_directions(20) {
-        let p = center + d * radius * 1.5;
-        constraints.push(Constraint::new(&p.to_array(), -0.5 * radius * value_scale));
-    }
-    let implicit = Implicit::solve(3, Kernel::ThinPlate, &constraints).unwrap();
-    let bounds = Aabb { min: center - DVec3::splat(radius), max: center + DVec3::splat(radius) };
-    Model::from_implicit(implicit, bounds, None)
-}
-
-fn disc_2d() -> Model {
-    let mut constraints: Vec<Constraint> = (0..24)
-        .map(|i| {
-            let a = std::f64::consts::TAU * i as f64 / 24.0;
-            Constraint::new(&[a.cos(), a.sin()], 0.0)
-        })
-        .collect();
-    constraints.push(Constraint::new(&[0.0, 0.0], 1.0));
-    let implicit = Implicit::solve(2, Kernel::ThinPlate, &constraints).unwrap();
-    let bounds = Aabb { min: DVec3::new(-1.0, -1.0, 0.0), max: DVec3::new(1.0, 1.0, 0.0) };
-    Model::from_implicit(implicit, bounds, None)
-}
+use balls::{ball, disc_2d};
 
 fn two_balls() -> (Model, Model) {
     (ball(DVec3::ZERO, 1.0, 1.0), ball(DVec3::new(1.1, 0.3, -0.2), 0.7, 3.0))
 }
 
 fn combine(op: Operation, blend: f64, a: &Model, b: &Model) -> Composite {
-    Composite::new("test", op, blend, vec![Child::new(a.clone()), Child::new(b.clone())]).unwrap()
+    Composite::new("test", op, blend, vec![Child::from(a.clone()), Child::from(b.clone())]).unwrap()
 }
 
 fn random_points(bounds: &Aabb, n: usize, seed: u64) -> Vec<DVec3> {
@@ -82,7 +40,7 @@ fn random_points(bounds: &Aabb, n: usize, seed: u64) -> Vec<DVec3> {
 
 /// The children's values divided by their distance scales.
 fn scaled_values(model: &Model, points: &[DVec3]) -> Vec<f64> {
-    let s = distance_scale(model.shape());
+    let s = model.shape().distance_scale();
     model.values(points).into_iter().map(|v| v / s).collect()
 }
 
@@ -174,7 +132,7 @@ fn gradients_match_finite_differences_of_the_values() {
                     c.value(p + DVec3::Z * eps) - c.value(p - DVec3::Z * eps),
                 ) / (2.0 * eps);
                 // A sharp operator's gradient jumps where the children are equal; skip those.
-                let (va, vb) = (c.children()[0].model().value(p), c.children()[1].model().value(p));
+                let (va, vb) = (c.children()[0].shape().value(p), c.children()[1].shape().value(p));
                 if blend == 0.0
                     && (va / c.children()[0].scale() - vb / c.children()[1].scale()).abs() < 1e-4
                 {
@@ -193,7 +151,7 @@ fn gradients_match_finite_differences_of_the_values() {
 fn children_are_brought_to_comparable_scale() {
     let plain = ball(DVec3::new(1.1, 0.3, -0.2), 0.7, 1.0);
     let steep = ball(DVec3::new(1.1, 0.3, -0.2), 0.7, 50.0);
-    let (sp, ss) = (distance_scale(plain.shape()), distance_scale(steep.shape()));
+    let (sp, ss) = (plain.shape().distance_scale(), steep.shape().distance_scale());
     assert!((ss / sp - 50.0).abs() < 1e-6 * 50.0, "scales {sp} and {ss}");
     assert!((sp - 1.0).abs() < 0.25, "a ball fitted to distances has slope near 1: {sp}");
     let a = ball(DVec3::ZERO, 1.0, 1.0);
@@ -264,7 +222,7 @@ fn nested_composites_round_trip_through_the_file() {
     assert_eq!(outer.bounds(), loaded.bounds());
     let Shape::Csg(composite) = loaded.shape() else { panic!("a composite") };
     assert_eq!((composite.operation(), composite.blend()), (Operation::Union, 0.2));
-    assert!(matches!(composite.children()[0].model().shape(), Shape::Csg(_)));
+    assert!(matches!(composite.children()[0].shape(), Shape::Csg(_)));
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&first).unwrap()).unwrap();
     assert_eq!(json["shape"]["type"], "csg");
     assert_eq!(json["shape"]["op"], "union");
@@ -281,19 +239,19 @@ fn bad_composites_are_clear_errors() {
         "x",
         Operation::Union,
         0.0,
-        vec![Child::new(a.clone()), Child::new(disc_2d())],
+        vec![Child::from(a.clone()), Child::from(disc_2d())],
     ));
     assert!(e.contains("3D") && e.contains("2D"), "{e}");
-    let e = err(Composite::new("x", Operation::Union, 0.0, vec![Child::new(a.clone())]));
+    let e = err(Composite::new("x", Operation::Union, 0.0, vec![Child::from(a.clone())]));
     assert!(e.contains("at least two"), "{e}");
     let e = err(Composite::new(
         "x",
         Operation::Union,
         -1.0,
-        vec![Child::new(a.clone()), Child::new(b.clone())],
+        vec![Child::from(a.clone()), Child::from(b.clone())],
     ));
     assert!(e.contains("blend"), "{e}");
-    let e = Child::with_scale("x", a.clone(), 0.0).unwrap_err().to_string();
+    let e = Child::with_scale("x", a.shape().clone(), a.bounds(), 0.0).unwrap_err().to_string();
     assert!(e.contains("scale"), "{e}");
     let far = ball(DVec3::new(9.0, 0.0, 0.0), 0.5, 1.0);
     let e = Model::from_composite(combine(Operation::Intersection, 0.0, &a, &far)).unwrap_err();
@@ -303,7 +261,7 @@ fn bad_composites_are_clear_errors() {
         "x",
         Operation::Union,
         0.0,
-        vec![Child::new(disc_2d()), Child::new(disc_2d())],
+        vec![Child::from(disc_2d()), Child::from(disc_2d())],
     );
     assert_eq!(discs.unwrap().dim(), 2);
 }
@@ -349,122 +307,4 @@ fn damaged_composite_files_are_named_errors() {
         assert!(e.contains(&path.display().to_string()), "names the file: {e}");
         assert!(e.contains(want), "says {want:?}: {e}");
     }
-}
-
-fn implicitize() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_implicitize"))
-}
-
-fn run(args: &[&std::ffi::OsStr]) -> std::process::Output {
-    implicitize().args(args).output().unwrap()
-}
-
-fn os(s: &(impl AsRef<std::ffi::OsStr> + ?Sized)) -> &std::ffi::OsStr {
-    s.as_ref()
-}
-
-#[test]
-fn the_command_line_writes_a_composite_that_eval_and_mesh_read() {
-    let (a, b) = two_balls();
-    let dir = tempfile::tempdir().unwrap();
-    let p = |name: &str| dir.path().join(name);
-    a.save(&p("a.json")).unwrap();
-    b.save(&p("b.json")).unwrap();
-    let out = run(&[
-        os("csg"),
-        os("difference"),
-        os(&p("a.json")),
-        os(&p("b.json")),
-        os("-o"),
-        os(&p("c.json")),
-        os("--blend"),
-        os("0.1"),
-        os("--quiet"),
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let model = Model::load(&p("c.json")).unwrap();
-    let want = combine(Operation::Difference, 0.1, &a, &b);
-    let points =
-        [DVec3::new(-0.5, 0.0, 0.0), DVec3::new(0.9, 0.3, -0.2), DVec3::new(3.0, 0.0, 0.0)];
-    assert_eq!(bits(&model.values(&points)), bits(&want.values(&points)));
-    std::fs::write(p("points.csv"), "x,y,z\n-0.5,0,0\n0.9,0.3,-0.2\n3,0,0\n").unwrap();
-    let out = run(&[
-        os("eval"),
-        os(&p("c.json")),
-        os("--points"),
-        os(&p("points.csv")),
-        os("-o"),
-        os(&p("v.npy")),
-        os("-q"),
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let bytes = std::fs::read(p("v.npy")).unwrap();
-    let values: Vec<f64> = npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap();
-    let signs: Vec<bool> = values.iter().map(|&v| v > 0.0).collect();
-    assert_eq!(signs, [true, false, false], "inside a only, inside both, outside: {values:?}");
-    let out = run(&[
-        os("mesh"),
-        os(&p("c.json")),
-        os("-o"),
-        os(&p("c.ply")),
-        os("--resolution"),
-        os("40"),
-        os("-q"),
-    ]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let (surface, _) = implicitize::mesh::read(&p("c.ply")).unwrap();
-    topology::assert_closed(&surface, "mesh of the composite");
-}
-
-fn stderr_of(args: &[&std::ffi::OsStr]) -> String {
-    let out = run(args);
-    assert!(!out.status.success(), "{args:?} should fail");
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-#[test]
-fn the_command_line_gives_clear_errors() {
-    let dir = tempfile::tempdir().unwrap();
-    let p = |name: &str| dir.path().join(name);
-    two_balls().0.save(&p("a.json")).unwrap();
-    disc_2d().save(&p("disc.json")).unwrap();
-    let e = stderr_of(&[
-        os("csg"),
-        os("xor"),
-        os(&p("a.json")),
-        os(&p("a.json")),
-        os("-o"),
-        os(&p("c.json")),
-    ]);
-    assert!(e.contains("xor") && e.contains("union"), "{e}");
-    let e = stderr_of(&[
-        os("csg"),
-        os("union"),
-        os(&p("a.json")),
-        os(&p("none.json")),
-        os("-o"),
-        os(&p("c.json")),
-    ]);
-    assert!(e.contains("none.json"), "{e}");
-    let e = stderr_of(&[
-        os("csg"),
-        os("union"),
-        os(&p("a.json")),
-        os(&p("disc.json")),
-        os("-o"),
-        os(&p("c.json")),
-    ]);
-    assert!(e.contains("2D") && e.contains("3D") && e.contains("disc.json"), "{e}");
-    let e = stderr_of(&[
-        os("csg"),
-        os("union"),
-        os(&p("a.json")),
-        os(&p("a.json")),
-        os("-o"),
-        os(&p("c.json")),
-        os("--blend"),
-        os("-1"),
-    ]);
-    assert!(e.contains("blend") || e.contains("-1"), "{e}");
-    assert!(!Path::new(&p("c.json")).exists(), "nothing is written on error");
 }

@@ -2,57 +2,76 @@
 
 mod common;
 
-use implicitize::Field;
-use implicitize::fit::{self, FitOptions, Goal};
-use implicitize::model::Model;
+use implicitize::fit::{FitOptions, Goal};
+use implicitize::pipeline::{self, Fitted, MeshFitOptions, Method};
 use implicitize::rbf::SinglePrecision;
-use implicitize::{DVec3, Grid, Mesh, Resolution, polygonize, voxelize};
+use implicitize::{DVec3, Field, Grid, Mesh, Resolution, polygonize, voxelize};
 
-/// Voxelizes `mesh` at `resolution` and fits it with `options`.
-fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> (Grid, fit::Fit) {
-    let grid = Grid::around(&mesh.bounds().unwrap(), Resolution::LongestAxis(resolution)).unwrap();
-    let density = voxelize::voxelize(mesh, &grid, &Default::default()).unwrap();
-    let goal = Goal::from_density(density, &options.regularity);
-    let fitted = fit::fit(&goal, options, |_, _| {}).unwrap();
-    (grid, fitted)
+/// Fits `mesh` at `resolution` with `options`, through the front door.
+fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> Fitted {
+    let options = MeshFitOptions {
+        resolution: Resolution::LongestAxis(resolution),
+        fit: options.clone(),
+        ..MeshFitOptions::default()
+    };
+    pipeline::fit_mesh(mesh, &options).unwrap()
 }
 
+/// The largest distances, in voxels of the fit's grid, from the polygonized model to `mesh`
+/// and back: an error measured independently of the fit's own figures.
+fn distances_to(fitted: &Fitted, mesh: &Mesh) -> (f64, f64) {
+    let grid = fitted.model.grid().expect("a fitted model has its grid");
+    let surface = polygonize::polygonize_field(&fitted.model, grid);
+    assert!(!surface.triangles.is_empty(), "the model has a surface");
+    let there = common::max_vertex_distance(&surface, mesh) / grid.voxel_size;
+    let back = common::max_vertex_distance(mesh, &surface) / grid.voxel_size;
+    (there, back)
+}
+
+/// The fit stops at the target E of 2 voxels, and the polygonized surface and the mesh lie
+/// within the target plus one voxel (the voxelization's and the polygonization's steps) of
+/// each other, measured on the meshes themselves.
 #[test]
 fn a_torus_is_fitted_within_two_voxels() {
     let torus = common::torus(2.0, 0.7, 96, 48);
-    let (_, fitted) = fit_mesh(&torus, 64, &FitOptions::default());
+    let fitted = fit_mesh(&torus, 64, &FitOptions::default());
     let report = &fitted.report;
     assert!(report.max_error_voxels <= 2.0, "E = {} voxels", report.max_error_voxels);
     assert!(report.constraints.total() <= 400, "{} constraints", report.constraints.total());
+    let (there, back) = distances_to(&fitted, &torus);
+    assert!(there <= 3.0, "implicit to mesh {there} voxels");
+    assert!(back <= 3.0, "mesh to implicit {back} voxels");
     assert_eq!(report.per_iteration.len(), report.iterations);
     let best = &report.per_iteration[report.best_iteration - 1];
     assert_eq!(best.max_error_voxels, report.max_error_voxels, "the kept model is the best one");
     assert!(report.per_iteration.iter().all(|i| i.max_error_voxels >= report.max_error_voxels));
 }
 
+/// What the report says of the initial model (paper 5.1), whose E is several voxels, holds on
+/// the meshes:
+/// the polygonized surface and the mesh are within the reported E plus one voxel, and the
+/// reported E is not larger than the measured distance plus one voxel.
 #[test]
 fn the_polygonized_fit_is_as_close_to_the_mesh_as_the_report_says() {
     let torus = common::torus(2.0, 0.7, 96, 48);
-    let (grid, fitted) = fit_mesh(&torus, 64, &FitOptions::default());
-    let model = Model::from_implicit(fitted.implicit, torus.bounds().unwrap(), Some(grid));
-    let surface = polygonize::polygonize_field(&model, &grid);
-    assert!(!surface.triangles.is_empty());
-    let bound = (f64::from(fitted.report.max_error_voxels) + 1.0) * grid.voxel_size;
-    let there = common::max_vertex_distance(&surface, &torus);
-    let back = common::max_vertex_distance(&torus, &surface);
-    assert!(there <= bound, "implicit to mesh {there} > {bound}");
-    assert!(back <= bound, "mesh to implicit {back} > {bound}");
+    let options = FitOptions { max_iterations: 1, ..FitOptions::default() };
+    let fitted = fit_mesh(&torus, 64, &options);
+    let reported = f64::from(fitted.report.max_error_voxels);
+    assert!(reported > 2.0, "the initial model's E = {reported} is above the target");
+    let (there, back) = distances_to(&fitted, &torus);
+    assert!(there.max(back) <= reported + 1.0, "{there} and {back} voxels against E {reported}");
+    assert!(reported <= there.max(back) + 1.0, "E {reported} against {there} and {back} voxels");
 }
 
 #[test]
 fn the_same_seed_gives_the_same_model_and_another_seed_another() {
     let torus = common::torus(2.0, 0.7, 64, 32);
     let options = FitOptions { max_iterations: 4, ..FitOptions::default() };
-    let (_, a) = fit_mesh(&torus, 48, &options);
-    let (_, b) = fit_mesh(&torus, 48, &options);
-    assert_eq!(format!("{:?}", a.implicit), format!("{:?}", b.implicit));
-    let (_, c) = fit_mesh(&torus, 48, &FitOptions { seed: 7, ..options });
-    assert_ne!(format!("{:?}", a.implicit), format!("{:?}", c.implicit));
+    let a = fit_mesh(&torus, 48, &options);
+    let b = fit_mesh(&torus, 48, &options);
+    assert_eq!(format!("{:?}", a.model.implicit()), format!("{:?}", b.model.implicit()));
+    let c = fit_mesh(&torus, 48, &FitOptions { seed: 7, ..options });
+    assert_ne!(format!("{:?}", a.model.implicit()), format!("{:?}", c.model.implicit()));
 }
 
 #[test]
@@ -63,8 +82,8 @@ fn a_scaled_and_moved_mesh_gives_the_same_fit_in_voxels() {
         triangles: torus.triangles.clone(),
     };
     let options = FitOptions { max_iterations: 6, ..FitOptions::default() };
-    let (_, near_fit) = fit_mesh(&torus, 48, &options);
-    let (_, far_fit) = fit_mesh(&far, 48, &options);
+    let near_fit = fit_mesh(&torus, 48, &options);
+    let far_fit = fit_mesh(&far, 48, &options);
     let (a, b) = (&near_fit.report, &far_fit.report);
     assert_eq!(a.constraints, b.constraints);
     assert_eq!(a.iterations, b.iterations);
@@ -142,22 +161,43 @@ fn two_separate_spheres_are_both_found() {
     let offset = spheres.vertices.len() as u32;
     spheres.vertices.extend(other.vertices);
     spheres.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + offset)));
-    let (_, fitted) = fit_mesh(&spheres, 64, &FitOptions::default());
+    let fitted = fit_mesh(&spheres, 64, &FitOptions::default());
     assert!(fitted.report.max_error_voxels <= 2.0, "E = {}", fitted.report.max_error_voxels);
+    // Both spheres are there: every vertex of each mesh is near the implicit surface.
+    let (there, back) = distances_to(&fitted, &spheres);
+    assert!(there <= 3.0 && back <= 3.0, "{there} and {back} voxels");
 }
 
+/// The naive method (paper 3.2) puts boundary constraints on mesh vertices, each with an
+/// exterior one two voxels out, and solves once; its surface is measured like the iterative
+/// fit's, and the meshes confirm the E it reports.
 #[test]
-fn the_naive_method_runs_and_is_measured_the_same_way() {
+fn the_naive_method_is_measured_the_same_way() {
     let torus = common::torus(2.0, 0.7, 64, 32);
-    let options = FitOptions::default();
-    let grid = Grid::around(&torus.bounds().unwrap(), Resolution::LongestAxis(48)).unwrap();
-    let density = voxelize::voxelize(&torus, &grid, &Default::default()).unwrap();
-    let goal = Goal::from_density(density, &options.regularity);
-    let naive = fit::naive::fit(&torus, &goal, &options).unwrap();
-    assert_eq!(naive.report.iterations, 1);
-    assert!(naive.report.constraints.boundary > 0);
-    assert_eq!(naive.report.constraints.boundary, naive.report.constraints.exterior);
-    assert!(naive.report.max_error_voxels.is_finite());
+    let options = MeshFitOptions {
+        resolution: Resolution::LongestAxis(48),
+        method: Method::Naive,
+        fit: FitOptions { max_constraints: 400, ..FitOptions::default() },
+        ..MeshFitOptions::default()
+    };
+    let naive = pipeline::fit_mesh(&torus, &options).unwrap();
+    let report = &naive.report;
+    assert_eq!(report.iterations, 1);
+    let boundary = report.constraints.boundary;
+    assert!((150..=200).contains(&boundary), "{boundary}: up to half the budget on vertices");
+    assert_eq!(report.constraints.boundary, report.constraints.exterior);
+    assert_eq!(report.constraints.interior, 0);
+    let implicit = naive.model.implicit().unwrap();
+    for c in implicit.constraints().iter().filter(|c| c.value() == 0.0) {
+        let p = DVec3::from_slice(c.position());
+        let on_mesh = torus.vertices.iter().any(|&v| v.distance(p) < 1e-9);
+        assert!(on_mesh, "boundary constraint {p} is a mesh vertex");
+        assert!(naive.model.value(p).abs() < 1e-6, "the surface passes through {p}");
+    }
+    let reported = f64::from(report.max_error_voxels);
+    let (there, back) = distances_to(&naive, &torus);
+    assert!(there.max(back) <= reported + 1.0, "{there} and {back} voxels against E {reported}");
+    assert!(reported <= there.max(back) + 1.0, "E {reported} against {there} and {back} voxels");
 }
 
 /// The coarse-to-fine grid evaluation (5.2) finds the sign of every voxel that a full
@@ -173,7 +213,7 @@ fn the_grid_evaluation_finds_every_sign_of_each_triceratops_model() {
     let goal = Goal::from_density(density, &options.regularity);
     let points: Vec<DVec3> = (0..grid.len()).map(|v| grid.position(grid.voxel(v))).collect();
     let mut models = 0;
-    fit::fit(&goal, &options, |line, implicit| {
+    implicitize::fit::fit(&goal, &options, |line, implicit| {
         let sampled = implicitize::rbf::evaluate_on_grid(implicit, &grid, Some(&goal.sd));
         let full = implicit.values3(&points.iter().map(|p| p.to_array()).collect::<Vec<_>>());
         let wrong = (0..grid.len()).filter(|&v| (sampled.data[v] > 0.0) != (full[v] > 0.0)).count();
@@ -207,7 +247,7 @@ fn a_large_grid_starts_at_half_the_resolution() {
     use implicitize::fit::GridLevel;
     let torus = common::torus(2.0, 0.7, 128, 64);
     let options = FitOptions::default();
-    let (_, fitted) = fit_mesh(&torus, 128, &options);
+    let fitted = fit_mesh(&torus, 128, &options);
     let report = &fitted.report;
     let levels: Vec<GridLevel> = report.per_iteration.iter().map(|i| i.grid).collect();
     let half = levels.iter().take_while(|&&l| l == GridLevel::Half).count();
@@ -231,11 +271,11 @@ fn a_large_grid_starts_at_half_the_resolution() {
     assert!(coarse[0].max_error_voxels > report.max_error_voxels);
 
     let limited = FitOptions { max_iterations: 5, ..options.clone() };
-    let (_, short) = fit_mesh(&torus, 128, &limited);
+    let short = fit_mesh(&torus, 128, &limited);
     assert!(short.report.iterations <= 5);
     assert_eq!(short.report.per_iteration.last().unwrap().grid, GridLevel::Full);
 
     let full = FitOptions { coarse_start_min_axis: usize::MAX, ..limited };
-    let (_, fine) = fit_mesh(&torus, 128, &full);
+    let fine = fit_mesh(&torus, 128, &full);
     assert!(fine.report.per_iteration.iter().all(|i| i.grid == GridLevel::Full));
 }

@@ -86,17 +86,20 @@ fn the_file_states_format_version_sign_and_kernel() {
     assert_eq!(Model::load(&path).unwrap().report().unwrap()["e"], 1);
 }
 
-/// Saves a sample model, edits its JSON with `edit`, and returns the load error's message.
-fn load_error_after(edit: impl FnOnce(&mut serde_json::Value)) -> (PathBuf, String) {
-    let dir = tempfile::tempdir().unwrap().keep();
-    let path = dir.join("edited.json");
+/// Saves a sample model, edits its JSON with `edit`, and returns the file, the load error's
+/// message and the temporary folder (removed when dropped).
+fn load_error_after(
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> (PathBuf, String, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("edited.json");
     sample_model(3, Kernel::ThinPlate).save(&path).unwrap();
     let mut json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
     edit(&mut json);
     std::fs::write(&path, serde_json::to_string(&json).unwrap()).unwrap();
     let message = Model::load(&path).unwrap_err().to_string();
-    (path, message)
+    (path, message, dir)
 }
 
 fn assert_names_file(path: &Path, message: &str, want: &str) {
@@ -130,7 +133,7 @@ fn wrong_files_and_versions_are_named_errors() {
         (Box::new(|j| j["bounds"]["min"][0] = 1e9.into()), "bounds"),
     ];
     for (edit, want) in cases {
-        let (path, message) = load_error_after(edit);
+        let (path, message, _dir) = load_error_after(edit);
         assert_names_file(&path, &message, want);
     }
 }

@@ -4,25 +4,23 @@ mod common;
 #[path = "common/topology.rs"]
 mod topology;
 
-use std::process::Command;
 use std::sync::OnceLock;
 
 use implicitize::csg::{Child, Composite, Operation};
-use implicitize::fit::{self, FitOptions, Goal};
+use implicitize::fit::FitOptions;
 use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions, Similarity};
 use implicitize::rbf::{Constraint, Implicit, Kernel};
-use implicitize::{Aabb, DVec3, Field, Grid, Mesh, Resolution, polygonize, voxelize};
+use implicitize::{Aabb, DVec3, Field, Grid, Mesh, MeshFitOptions, Resolution, polygonize};
 
 /// Fits `mesh` at a small resolution.
 fn fitted(mesh: &Mesh) -> Model {
-    let bounds = mesh.bounds().unwrap();
-    let grid = Grid::around(&bounds, Resolution::LongestAxis(40)).unwrap();
-    let density = voxelize::voxelize(mesh, &grid, &Default::default()).unwrap();
-    let options = FitOptions { max_iterations: 12, ..FitOptions::default() };
-    let goal = Goal::from_density(density, &options.regularity);
-    let fit = fit::fit(&goal, &options, |_, _| {}).unwrap();
-    Model::from_implicit(fit.implicit, bounds, Some(grid))
+    let options = MeshFitOptions {
+        resolution: Resolution::LongestAxis(40),
+        fit: FitOptions { max_iterations: 12, ..FitOptions::default() },
+        ..MeshFitOptions::default()
+    };
+    implicitize::fit_mesh(mesh, &options).unwrap().model
 }
 
 /// A sphere of radius 1.5 and a torus of radii 2 and 0.7 around z, both at the origin, fitted
@@ -128,7 +126,7 @@ impl Field for Slice<'_> {
 
 #[test]
 fn alignment_moves_and_scales_b_onto_a() {
-    let (sphere, torus) = sphere_and_torus();
+    let (_, torus) = sphere_and_torus();
     let small = ball_far_away();
     for method in [Method::Blend, Method::Variational] {
         let options = MorphOptions { method, align: true, ..MorphOptions::default() };
@@ -151,7 +149,6 @@ fn alignment_moves_and_scales_b_onto_a() {
             assert_eq!(frame.value(q) > 0.0, small.value(p) > 0.0, "{method:?} at {p:?}");
         }
     }
-    let _ = sphere;
 }
 
 /// A ball of radius 0.5 at (10, 0, 0), solved from analytic constraints.
@@ -200,7 +197,7 @@ fn bad_morphs_are_clear_errors() {
         "u",
         Operation::Union,
         0.0,
-        vec![Child::new(sphere.clone()), Child::new(torus.clone())],
+        vec![Child::from(sphere.clone()), Child::from(torus.clone())],
     )
     .unwrap();
     let union = Model::from_composite(union).unwrap();
@@ -213,76 +210,4 @@ fn bad_morphs_are_clear_errors() {
     assert!(e.contains("time scale"), "{e}");
     // The blend reads any field, composites too.
     assert!(Morph::new(sphere, &union, &MorphOptions::default()).is_ok());
-}
-
-fn implicitize() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_implicitize"))
-}
-
-#[test]
-fn the_command_line_writes_frames_and_a_strip() {
-    let (sphere, torus) = sphere_and_torus();
-    let dir = tempfile::tempdir().unwrap();
-    let (a, b, out) =
-        (dir.path().join("a.json"), dir.path().join("b.json"), dir.path().join("frames"));
-    sphere.save(&a).unwrap();
-    torus.save(&b).unwrap();
-    let status = implicitize()
-        .arg("morph")
-        .args([&a, &b])
-        .args([
-            "--steps",
-            "3",
-            "--method",
-            "variational",
-            "--align",
-            "--resolution",
-            "40",
-            "--strip-width",
-            "64",
-            "-q",
-            "-o",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
-    for i in 0..3 {
-        let (mesh, _) = implicitize::mesh::read(&out.join(format!("frame-{i:03}.ply"))).unwrap();
-        topology::assert_closed(&mesh, &format!("frame {i}"));
-    }
-    assert!(!out.join("frame-003.ply").exists());
-    let strip = std::fs::read(out.join("strip.png")).unwrap();
-    assert_eq!(&strip[1..4], b"PNG");
-    // The strip is three 64 x 48 pictures side by side: width and height in the IHDR chunk.
-    assert_eq!(u32::from_be_bytes(strip[16..20].try_into().unwrap()), 3 * 64);
-    assert_eq!(u32::from_be_bytes(strip[20..24].try_into().unwrap()), 48);
-
-    let fails = |args: &[&str], want: &[&str]| {
-        let o = implicitize()
-            .arg("morph")
-            .args([&a, &b])
-            .args(args)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .unwrap();
-        assert!(!o.status.success(), "{args:?} should fail");
-        let e = String::from_utf8_lossy(&o.stderr);
-        for w in want {
-            assert!(e.contains(w), "{args:?}: {e} does not say {w}");
-        }
-    };
-    fails(&["--steps", "1"], &["at least 2"]);
-    fails(&["--steps", "3", "--method", "sideways"], &["sideways", "blend"]);
-    let o = implicitize()
-        .arg("morph")
-        .arg(&a)
-        .arg(dir.path().join("missing.json"))
-        .args(["--steps", "3", "-o"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("missing.json"));
 }

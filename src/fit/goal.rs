@@ -48,12 +48,12 @@ impl Goal {
     /// where it cannot be found reliably.
     ///
     /// The first step goes from `p` along the gradient of the voxel signed distance by the
-    /// sub-voxel signed distance; up to [`PROJECTION_STEPS`] more correct it along the
+    /// sub-voxel signed distance; up to four more correct it along the
     /// densities' gradient (the voxel signed distance's where the densities are flat). Where the
     /// densities saturate (a voxel or more from the surface) their gradient is small and these
     /// steps overshoot, so once two steps end on opposite sides of the surface the crossing of
     /// the densities through 1/2 on the segment between them is found by bisection. The point
-    /// is kept only if its sub-voxel signed distance is within [`PROJECTION_TOLERANCE`] voxels
+    /// is kept only if its sub-voxel signed distance is within a tenth of a voxel
     /// of zero: near a crease or a medial sheet the gradient turns, and a point that does not
     /// settle on the surface would be a boundary constraint off the goal's surface.
     pub fn project_to_surface(&self, p: DVec3) -> Option<DVec3> {

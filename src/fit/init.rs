@@ -89,3 +89,80 @@ fn follow_gradient(sd: &Volume<f32>, start: DVec3, direction: f64) -> (DVec3, f6
     }
     (p, length)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::Grid;
+
+    /// Half extents of the box (voxels) and its centre, which lies between voxel centres so
+    /// that every face is half a voxel outside a layer of voxel centres.
+    const HALF: [f64; 3] = [12.0, 10.0, 8.0];
+    const CENTRE: [f64; 3] = [16.5, 24.5, 24.5];
+
+    /// The goal of the box in a grid of 48^3 unit voxels. The face at -x is 4.5 voxels from
+    /// the grid's edge, nearer than the box's middle, so the walks from it are longer inward;
+    /// the other faces are 13.5 voxels or more from the edge, so theirs are longer outward.
+    fn box_goal() -> Goal {
+        let grid = Grid { dims: [48, 48, 48], origin: [0.0; 3], voxel_size: 1.0 };
+        let data = (0..grid.len())
+            .map(|n| f32::from(u8::from(box_distance(grid.position(grid.voxel(n))) > 0.0)))
+            .collect();
+        Goal::from_density(Volume { grid, data }, &FitOptions::default().regularity)
+    }
+
+    /// The distances from `p` to the box's six face planes, inside positive, smallest first.
+    fn face_distances(p: DVec3) -> [f64; 6] {
+        let mut d = [0.0; 6];
+        for a in 0..3 {
+            d[2 * a] = HALF[a] - (p[a] - CENTRE[a]);
+            d[2 * a + 1] = HALF[a] + (p[a] - CENTRE[a]);
+        }
+        d.sort_by(f64::total_cmp);
+        d
+    }
+
+    /// The signed Euclidean distance from `p` to the box's surface, inside positive.
+    fn box_distance(p: DVec3) -> f64 {
+        let q = DVec3::from_array(std::array::from_fn(|a| (p[a] - CENTRE[a]).abs() - HALF[a]));
+        let outside = q.max(DVec3::ZERO).length();
+        let inside = q.max_element().min(0.0);
+        -(outside + inside)
+    }
+
+    /// Boundary constraints lie on the box's surface, interior ones on its medial axis (where
+    /// the nearest face is not unique) at their distance from the surface, exterior ones
+    /// outside it at theirs: each value within half a voxel of the exact distance.
+    #[test]
+    fn initial_constraints_land_on_the_surface_the_medial_axis_and_outside() {
+        let goal = box_goal();
+        let options = FitOptions::default();
+        let constraints = initial_constraints(&goal, &options);
+        let (mut interior, mut exterior) = (0, 0);
+        for c in &constraints {
+            let exact = box_distance(c.position);
+            if c.value == 0.0 {
+                // On a face exactly; a quarter voxel in along an edge, where the sub-voxel point
+                // averages the crossings along two axes.
+                assert!(exact.abs() <= 0.25, "boundary constraint {} is {exact} off", c.position);
+                continue;
+            }
+            assert!((c.value - exact).abs() <= 0.5, "{} has {} for {exact}", c.position, c.value);
+            if c.value > 0.0 {
+                let faces = face_distances(c.position);
+                assert!(
+                    faces[1] - faces[0] <= 1.0,
+                    "{} is off the medial axis: {faces:?}",
+                    c.position
+                );
+                interior += 1;
+            } else {
+                assert!(exact < -1.0, "exterior constraint {} is {exact} outside", c.position);
+                exterior += 1;
+            }
+        }
+        let boundary = constraints.len() - interior - exterior;
+        assert_eq!(boundary, options.initial_constraints);
+        assert!(interior > 0 && exterior > 0, "{interior} interior, {exterior} exterior");
+    }
+}

@@ -46,16 +46,19 @@
 //! growth of `r^2 log r` cancels against the polynomial), so its terms are orders of magnitude
 //! larger than the result. f32 lanes would leave an error near `1e-7 sum_j |d_j phi_j|`, far
 //! above the `1e-6` relative agreement the fit and the peer comparison need; f64 keeps it near
-//! `1e-15` of that sum. Points are evaluated eight at a time, one per vector lane, against
-//! centres stored axis by axis (SoA); `r^2 log r = 0.5 r^2 ln(r^2)` needs no square root, and the
-//! logarithm is fdlibm's (error below one ulp) written branch-free so that it vectorizes. The
-//! loops are compiled for AVX-512, AVX2 + FMA and the baseline target, and the best the CPU
-//! supports is chosen at run time. Blocks of points are spread over threads with rayon.
+//! `1e-15` of that sum. Points are evaluated sixteen at a time (two AVX-512 vectors of 8 lanes,
+//! four AVX2 ones of 4), against centres stored axis by axis (SoA); `r^2 log r = 0.5 r^2
+//! ln(r^2)` needs no square root, and the logarithm is fdlibm's reduction and series (within 3
+//! ulps of std's) written branch-free so that it vectorizes. The loops are compiled for
+//! AVX-512, AVX2 + FMA and the baseline target, and the best the CPU supports is chosen at run
+//! time ([`Isa`]; `IMPLICITIZE_ISA` forces one). Blocks of points are spread over threads with
+//! rayon.
 
 mod csv;
 mod evaluate;
 mod gmres;
 mod grid;
+mod isa;
 mod iterative;
 mod schwarz;
 mod solve;
@@ -69,6 +72,7 @@ use crate::geometry::DVec3;
 
 pub use csv::{read_constraints, read_points};
 pub use grid::evaluate_on_grid;
+pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};
 pub use solve::{DIRECT_MAX, MAX_RESIDUAL, MIN_SEPARATION};
 
 /// The radial basis function `phi(r)` of a variational implicit function.
@@ -291,6 +295,24 @@ impl Implicit {
     /// into the shape since the inside is positive.
     pub fn gradient_at(&self, x: &[f64]) -> Vec<f64> {
         evaluate::gradient_at(self, x)
+    }
+
+    /// The typical gradient magnitude of the function at its surface, in value units per mesh
+    /// unit: dividing by it makes values approximate signed distances in mesh units (what CSG
+    /// and morphing compare). The median of `|grad f|` over the boundary constraints (over
+    /// every constraint when there is no boundary constraint), in every dimension the function
+    /// has; 1 for a degenerate function whose median is zero or not finite.
+    pub fn distance_scale(&self) -> f64 {
+        let constraints = self.constraints();
+        let boundary: Vec<_> = constraints.iter().filter(|c| c.value() == 0.0).collect();
+        let sites = if boundary.is_empty() { constraints.iter().collect() } else { boundary };
+        let mut slopes: Vec<f64> = sites
+            .iter()
+            .map(|c| self.gradient_at(c.position()).iter().map(|g| g * g).sum::<f64>().sqrt())
+            .collect();
+        slopes.sort_unstable_by(f64::total_cmp);
+        let median = slopes.get(slopes.len() / 2).copied().unwrap_or(1.0);
+        if median.is_finite() && median > 0.0 { median } else { 1.0 }
     }
 
     /// The values at many 3D points (a 2D function reads x and y, a 4D one takes `t = 0`), in

@@ -16,7 +16,7 @@
 //!
 //! This is the solve for up to [`DIRECT_MAX`] constraints; larger systems, whose dense matrix
 //! would take `O(n^2)` memory and `O(n^3)` time, go to the iterative solve
-//! ([`super::iterative`]), which also starts from the previous model of a fit.
+//! (`rbf/iterative.rs`), which also starts from the previous model of a fit.
 //!
 //! Positions are first normalized (centroid and largest extent); the [module doc](crate::rbf)
 //! says why that leaves the interpolant unchanged.
@@ -45,7 +45,7 @@ const REFINEMENT_STEPS: usize = 4;
 const CONTEXT: &str = "constraints";
 
 /// Systems of up to this many constraints are solved by the dense factorization, larger ones
-/// iteratively ([`super::iterative`]). Measured on bunny samples (2 cores, AVX2): the dense
+/// iteratively (`rbf/iterative.rs`). Measured on bunny samples (2 cores, AVX2): the dense
 /// solve is faster at 2,000 constraints, the iterative one at 3,000 (2.7x) and beyond.
 pub const DIRECT_MAX: usize = 2500;
 

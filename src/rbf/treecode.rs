@@ -55,7 +55,8 @@
 
 use rayon::prelude::*;
 
-use super::evaluate::{Centres, Isa, LANES, Phi, dispatch};
+use super::evaluate::{Centres, LANES, Phi, dispatch};
+use super::isa::Isa;
 
 /// The most Chebyshev points per axis of any [`Params::degree`].
 const MAX_NODES: usize = 12;
@@ -616,7 +617,7 @@ mod tests {
 
     /// The values at `points` by summation `sum`.
     fn values(implicit: &Implicit, sum: Summation, points: &[[f64; 3]]) -> Vec<f64> {
-        let isa = super::Isa::detect();
+        let isa = crate::rbf::Isa::selected();
         values_with(isa, sum, implicit, points.len(), |i, out| out.copy_from_slice(&points[i]))
     }
 

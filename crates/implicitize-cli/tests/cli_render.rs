@@ -10,7 +10,7 @@ fn implicitize() -> Command {
 }
 
 fn triceratops() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/data/triceratops.obj"))
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/triceratops.obj"))
 }
 
 fn run(command: &mut Command) -> Output {

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn triceratops() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/triceratops.obj")
 }
 
 fn run(args: &[&str]) -> std::process::Output {

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use implicitize::{distance, voxelize};
+use implicitize::{pipeline, voxelize};
 
 use super::common::{GridArgs, Progress, read_mesh};
 
@@ -34,14 +34,12 @@ pub fn run(args: &VolumeArgs, kind: VolumeKind, progress: Progress) -> anyhow::R
     let mesh = read_mesh(&args.mesh, progress)?;
     let grid = args.grid.grid_around(&mesh, &args.mesh)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
-    let density = voxelize::voxelize(&mesh, &grid, &voxelize::VoxelizeOptions::default())?;
+    let options = voxelize::VoxelizeOptions::default();
     let volume = match kind {
-        VolumeKind::Density => density,
+        VolumeKind::Density => voxelize::voxelize(&mesh, &grid, &options)?,
         VolumeKind::SignedDistance => {
-            progress.stage("signed distance");
-            let inside = distance::inside(&density);
-            drop(density);
-            distance::signed_distance(&inside)
+            let source = args.mesh.display().to_string();
+            pipeline::signed_distance_of_mesh(&mesh, args.grid.resolution(), &options, &source)?
         }
     };
     volume.save_npy(&args.output)?;

@@ -52,7 +52,7 @@ pub fn run(args: &CsgArgs, progress: Progress) -> anyhow::Result<()> {
     let a = Model::load(&args.a)?;
     let b = Model::load(&args.b)?;
     let context = format!("{} {} {}", args.a.display(), args.op_name(), args.b.display());
-    let (a, b) = (Child::new(a), Child::new(b));
+    let (a, b) = (Child::from(a), Child::from(b));
     let scales = (a.scale(), b.scale());
     let composite = Composite::new(&context, args.op.into(), args.blend, vec![a, b])?;
     let model = Model::from_composite(composite).map_err(|e| anyhow::anyhow!("{context}: {e}"))?;

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
-use implicitize::fit::{self, ErrorMeasure, FitOptions, FitReport, Goal};
-use implicitize::model::Model;
-use implicitize::{Mesh, mesh, polygonize, voxelize};
+use implicitize::fit::{self, ErrorMeasure, FitOptions, FitReport};
+use implicitize::pipeline::{self, MeshFitOptions, Prepared};
+use implicitize::{Mesh, mesh, polygonize};
 
 use super::common::{GridArgs, Progress, read_mesh};
 use super::render::{Snapshots, compare_picture};
@@ -76,15 +76,23 @@ pub struct FitArgs {
 }
 
 impl FitArgs {
-    fn options(&self) -> FitOptions {
+    fn options(&self) -> MeshFitOptions {
         let mut options = self.settings.options();
         if self.method == Method::Naive && self.settings.max_constraints.is_none() {
             options.max_constraints = fit::naive::DEFAULT_CONSTRAINTS;
         }
         if self.full_resolution {
-            FitOptions { coarse_start_min_axis: usize::MAX, ..options }
-        } else {
-            options
+            options.coarse_start_min_axis = usize::MAX;
+        }
+        let method = match self.method {
+            Method::Iterative => pipeline::Method::Iterative,
+            Method::Naive => pipeline::Method::Naive,
+        };
+        MeshFitOptions {
+            resolution: self.grid.resolution(),
+            method,
+            fit: options,
+            ..Default::default()
         }
     }
 }
@@ -139,7 +147,7 @@ pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
 }
 
 /// The built-in default model, compiled into the binary (see data/README.md).
-const TRICERATOPS_OBJ: &[u8] = include_bytes!("../../data/triceratops.obj");
+const TRICERATOPS_OBJ: &[u8] = include_bytes!("../../../../data/triceratops.obj");
 
 /// Arguments of `implicitize demo`.
 #[derive(Debug, Args)]
@@ -193,61 +201,34 @@ fn fit_and_write(
     let options = args.options();
     let grid = args.grid.grid_around(mesh, source)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
-    let clock = std::time::Instant::now();
-    let density = voxelize::voxelize(mesh, &grid, &voxelize::VoxelizeOptions::default())?;
-    let goal = Goal::from_density(density, &options.regularity);
-    let goal_seconds = clock.elapsed().as_secs_f64();
-    let bounds = mesh.bounds().context("the mesh has no triangles")?;
-    let mut snapshots =
-        outputs.snapshots.map(|dir| Snapshots::new(dir, bounds, &grid)).transpose()?;
-    let fitted = match args.method {
-        Method::Iterative => fit::fit(&goal, &options, |line, implicit| {
-            progress.line(line.line());
-            if let Some(snapshots) = snapshots.as_mut() {
-                snapshots.take(line.iteration, implicit);
-            }
-        })?,
-        Method::Naive => fit::naive::fit(mesh, &goal, &options)?,
-    };
+    let prepared = Prepared::new(mesh, &source.display().to_string(), &options)?;
+    let mut snapshots = outputs
+        .snapshots
+        .map(|dir| Snapshots::new(dir, prepared.bounds(), prepared.grid()))
+        .transpose()?;
+    let mut fitted = prepared.fit(|line, implicit| {
+        progress.line(line.line());
+        if let Some(snapshots) = snapshots.as_mut() {
+            snapshots.take(line.iteration, implicit);
+        }
+    })?;
     if let Some(snapshots) = snapshots {
         snapshots.finish()?;
     }
-    let mut report = fitted.report;
-    report.mesh_bytes = mesh_bytes;
-    // Table 2 counts the goal's voxelization and signed distance as signed distance time.
-    report.timings_s.signed_distance += goal_seconds;
-    report.timings_s.total += goal_seconds;
-    let mut model = Model::from_implicit(fitted.implicit, bounds, Some(grid));
-    model.save(outputs.model)?;
-    report.model_bytes = std::fs::metadata(outputs.model).ok().map(|m| m.len());
-    model.set_report(without_timings(serde_json::to_value(&report)?));
-    model.save(outputs.model)?;
+    fitted.report.mesh_bytes = mesh_bytes;
+    fitted.save(outputs.model)?;
     if let Some(path) = outputs.report {
-        write_report(path, &report)?;
+        write_report(path, &fitted.report)?;
     }
     if let Some(path) = outputs.mesh {
-        let surface = polygonize::polygonize_field(&model, &grid);
+        let surface = polygonize::polygonize_field(&fitted.model, &grid);
         mesh::write(path, &surface)?;
     }
     if let Some(path) = outputs.compare {
-        compare_picture(mesh, &model, 800, 600)?.save_png(path)?;
+        compare_picture(mesh, &fitted.model, 800, 600)?.save_png(path)?;
     }
-    progress.line(report.table(name));
+    progress.line(fitted.report.table(name));
     Ok(())
-}
-
-/// The report as the model file keeps it: without the running times, so that the same mesh,
-/// options and seed give the same model file byte for byte (the report file has them).
-fn without_timings(mut report: serde_json::Value) -> serde_json::Value {
-    if let Some(fields) = report.as_object_mut() {
-        fields.remove("timings_s");
-        if let Some(serde_json::Value::Array(iterations)) = fields.get_mut("per_iteration") {
-            for iteration in iterations.iter_mut().filter_map(|i| i.as_object_mut()) {
-                iteration.remove("timings_s");
-            }
-        }
-    }
-    report
 }
 
 fn write_report(path: &Path, report: &FitReport) -> anyhow::Result<()> {

@@ -3,9 +3,8 @@
 use std::io::IsTerminal;
 use std::path::Path;
 
-use anyhow::Context;
 use clap::Args;
-use implicitize::{Grid, Mesh, Resolution, mesh};
+use implicitize::{Grid, Mesh, Resolution, mesh, pipeline};
 
 /// The size of the voxel grid placed around the mesh.
 #[derive(Debug, Args)]
@@ -30,10 +29,7 @@ impl GridArgs {
 
     /// The grid around `mesh`, whose file is `path`.
     pub fn grid_around(&self, mesh: &Mesh, path: &Path) -> anyhow::Result<Grid> {
-        let bounds = mesh
-            .bounds()
-            .with_context(|| format!("{}: the mesh has no triangles", path.display()))?;
-        Ok(Grid::around(&bounds, self.resolution())?)
+        Ok(pipeline::grid_around(mesh, self.resolution(), &path.display().to_string())?)
     }
 }
 

@@ -7,18 +7,17 @@
 //! regularity (figure 3). The pictures of a fit's iterations (figure 1) are drawn by
 //! [`snapshot`], which `fit --snapshots` calls.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use implicitize::figure3::figure3;
 use implicitize::fit::Goal;
 use implicitize::metrics::RegularityOptions;
 use implicitize::model::Model;
-use implicitize::render::{
-    Camera, Coloring, Image, March, Shading, render_field, render_mesh, render_mesh_scalars,
-};
-use implicitize::{Aabb, DVec3, Field, Grid, Mesh, polygonize, voxelize};
+use implicitize::render::{Camera, Coloring, Image, March, Shading, render_field, render_mesh};
+use implicitize::voxelize::VoxelizeOptions;
+use implicitize::{Aabb, DVec3, Field, Grid, Mesh, pipeline};
 
 use super::common::{GridArgs, Progress, read_mesh};
 
@@ -191,9 +190,9 @@ fn draw(
         }
         (Shape::Mesh(mesh), ColorArg::Rreg) => {
             let regularity = RegularityOptions::default();
-            let (surface, rreg) = goal_surface_rreg(mesh, path, &args.grid, &regularity, progress)?;
-            let range = (regularity.min_radius as f32, regularity.max_radius as f32);
-            Ok(render_mesh_scalars(&surface, &rreg, range, camera)?)
+            let goal = goal_of(mesh, path, &args.grid, &regularity, progress)?;
+            progress.stage("radii of regularity");
+            Ok(figure3(&goal, &regularity, camera)?)
         }
         (Shape::Mesh(mesh), color) => {
             Ok(render_mesh(mesh, camera, coloring(color), Shading::Smooth))
@@ -236,70 +235,20 @@ fn view(view: &[f64]) -> anyhow::Result<[f64; 2]> {
     }
 }
 
-/// The goal surface of `mesh` and the radius of regularity at each of its vertices, in voxels
-/// (paper 4.3): that of the nearest goal boundary voxel.
-///
-/// The goal surface is where the densities of the mesh's voxelization cross 1/2 (4.1), the
-/// same sub-voxel surface the fit places its boundary constraints on (5.3); it lies between
-/// the goal's boundary voxels (signed distance 1/2 inside, 4.2) and their outside neighbours.
-/// The zero set of the signed distance itself would be a staircase of voxel faces.
-fn goal_surface_rreg(
+/// The goal of `mesh` on the grid of `--resolution` or `--dims`, its radii of regularity
+/// measured as `regularity` says (paper 4.3).
+fn goal_of(
     mesh: &Mesh,
     path: &Path,
     grid_args: &GridArgs,
     regularity: &RegularityOptions,
     progress: Progress,
-) -> anyhow::Result<(Mesh, Vec<f32>)> {
-    let grid = grid_args.grid_around(mesh, path)?;
+) -> anyhow::Result<Goal> {
+    let source = path.display().to_string();
+    let grid = pipeline::grid_around(mesh, grid_args.resolution(), &source)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
-    let density = voxelize::voxelize(mesh, &grid, &voxelize::VoxelizeOptions::default())
-        .with_context(|| path.display().to_string())?;
-    progress.stage("radii of regularity");
-    let goal = Goal::from_density(density, regularity);
-    let surface = polygonize(&goal.density, 0.5);
-    let rreg_at: HashMap<[usize; 3], f32> =
-        goal.boundary.iter().copied().zip(goal.rreg.iter().copied()).collect();
-    let rreg = surface
-        .vertices
-        .iter()
-        .map(|&v| nearest_rreg(&rreg_at, grid.dims, grid.to_grid(v)))
-        .collect();
-    Ok((surface, rreg))
-}
-
-/// How far, in voxels along each axis, the nearest boundary voxel is looked for. A goal
-/// surface vertex lies on the segment between an inside voxel with signed distance 1/2 (a
-/// boundary voxel) and an outside one, so the nearest boundary voxel is at most one step from
-/// the voxel nearest the vertex; two steps leave room for the corners of the lattice walk.
-const RREG_REACH: i64 = 2;
-
-/// The radius of regularity of the boundary voxel nearest `g` (continuous voxel coordinates)
-/// within [`RREG_REACH`], or NaN (drawn grey) when there is none.
-fn nearest_rreg(rreg_at: &HashMap<[usize; 3], f32>, dims: [usize; 3], g: DVec3) -> f32 {
-    let centre = g.round();
-    let mut best = (f64::INFINITY, f32::NAN);
-    for di in -RREG_REACH..=RREG_REACH {
-        for dj in -RREG_REACH..=RREG_REACH {
-            for dk in -RREG_REACH..=RREG_REACH {
-                let v = centre + DVec3::new(di as f64, dj as f64, dk as f64);
-                let inside = v.cmpge(DVec3::ZERO).all()
-                    && v.x < dims[0] as f64
-                    && v.y < dims[1] as f64
-                    && v.z < dims[2] as f64;
-                if !inside {
-                    continue;
-                }
-                let voxel = [v.x as usize, v.y as usize, v.z as usize];
-                if let Some(&r) = rreg_at.get(&voxel) {
-                    let d = v.distance_squared(g);
-                    if d < best.0 {
-                        best = (d, r);
-                    }
-                }
-            }
-        }
-    }
-    best.1
+    let options = VoxelizeOptions::default();
+    Ok(pipeline::goal_of_mesh(mesh, grid_args.resolution(), &options, regularity, &source)?)
 }
 
 /// The picture of one fit iteration's implicit surface (paper figure 1): `field` marched over

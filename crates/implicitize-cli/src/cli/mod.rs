@@ -59,7 +59,25 @@ enum Command {
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let progress = common::Progress::new(cli.quiet);
-    let result: anyhow::Result<()> = match &cli.command {
+    let result = check_isa().and_then(|()| dispatch(&cli.command, progress));
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Refuses an `IMPLICITIZE_ISA` that names no instruction set or one this CPU lacks.
+fn check_isa() -> anyhow::Result<()> {
+    implicitize::rbf::Isa::from_env()?;
+    Ok(())
+}
+
+/// Runs the subcommand.
+fn dispatch(command: &Command, progress: common::Progress) -> anyhow::Result<()> {
+    match command {
         Command::Demo(args) => fit::demo(args, progress),
         Command::Fit(args) => fit::run(args, progress),
         Command::Fit2d(args) => fit2d::run(args, progress),
@@ -71,12 +89,5 @@ pub fn run() -> ExitCode {
         Command::Render(args) => render::run(args, progress),
         Command::Csg(args) => csg::run(args, progress),
         Command::Morph(args) => morph::run(args, progress),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
     }
 }
