@@ -25,7 +25,10 @@ for model in "${models[@]}"; do
   "$python" - "$model" "$mesh" "$out" <<'PY'
 import json, sys
 import numpy as np
-import trimesh, igl
+import trimesh
+
+sys.path.insert(0, "scripts")
+from surface_distance import distances
 
 model, mesh_path, out = sys.argv[1:]
 seconds, kilobytes = open(f"{out}/{model}.time").read().split()
@@ -34,24 +37,14 @@ voxel = report["voxel_size"]
 goal = trimesh.load(mesh_path, force="mesh")
 fitted = trimesh.load(f"{out}/{model}.ply", force="mesh")
 
-def distances(source, target, n=50_000):
-    """Distances (voxels) from n points spread by area over source to the surface target."""
-    np.random.seed(0)
-    points, _ = trimesh.sample.sample_surface(source, n)
-    d2, _, _ = igl.point_mesh_squared_distance(
-        np.asarray(points, dtype=np.float64),
-        np.asarray(target.vertices, dtype=np.float64),
-        np.asarray(target.faces, dtype=np.int64))
-    return np.sqrt(d2) / voxel
-
 kept = report["per_iteration"][report["best_iteration"] - 1]
 print(f"## {model} at 512: {sum(report['constraints'].values())} constraints, "
       f"E {kept['max_error_voxels']:.2f} (sub-voxel {kept['max_error_subvoxel_voxels']:.2f}) "
       f"voxels, {report['termination']}")
 print(f"   whole process {float(seconds):.1f} s, peak memory {int(kilobytes) / 1e6:.2f} GB")
-pairs = [("mesh -> implicit", distances(goal, fitted))]
+pairs = [("mesh -> implicit", distances(goal, fitted, voxel))]
 if model != "bunny":
-    pairs.append(("implicit -> mesh", distances(fitted, goal)))
+    pairs.append(("implicit -> mesh", distances(fitted, goal, voxel)))
 for name, d in pairs:
     print(f"   {name}: max {d.max():.2f}, 99.9% {np.percentile(d, 99.9):.2f}, "
           f"mean {d.mean():.3f} voxels")

@@ -23,7 +23,10 @@ cargo build --release --quiet --bin implicitize
 "$python" - "$mesh" "$work" <<'PY'
 import json, sys
 import numpy as np
-import trimesh, igl
+import trimesh
+
+sys.path.insert(0, "scripts")
+from surface_distance import distances
 
 mesh_path, work = sys.argv[1:]
 report = json.load(open(f"{work}/report.json"))
@@ -31,18 +34,8 @@ voxel = report["voxel_size"]
 goal = trimesh.load(mesh_path, force="mesh")
 fitted = trimesh.load(f"{work}/surface.ply", force="mesh")
 
-def distances(source, target, n=50_000):
-    """Distances (voxels) from n points spread by area over source to the surface target."""
-    np.random.seed(0)
-    points, _ = trimesh.sample.sample_surface(source, n)
-    d2, _, _ = igl.point_mesh_squared_distance(
-        np.asarray(points, dtype=np.float64),
-        np.asarray(target.vertices, dtype=np.float64),
-        np.asarray(target.faces, dtype=np.int64))
-    return np.sqrt(d2) / voxel
-
-mesh_to_implicit = distances(goal, fitted)
-implicit_to_mesh = distances(fitted, goal)
+mesh_to_implicit = distances(goal, fitted, voxel)
+implicit_to_mesh = distances(fitted, goal, voxel)
 print(f"{mesh_path}: E {report['max_error_voxels']:.2f} voxels (fit's own measure), "
       f"{sum(report['constraints'].values())} constraints")
 for name, d in [("mesh -> implicit", mesh_to_implicit), ("implicit -> mesh", implicit_to_mesh)]:
