@@ -341,4 +341,10 @@ impl Field for Composite {
     fn surface_points(&self) -> Vec<DVec3> {
         self.children.iter().flat_map(|c| c.shape.surface_points()).collect()
     }
+
+    /// The smallest of the children's batch sizes for fast summation: every child is
+    /// evaluated at all the points.
+    fn fast_batch(&self) -> Option<usize> {
+        self.children.iter().filter_map(|c| c.shape.fast_batch()).min()
+    }
 }

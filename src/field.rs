@@ -31,4 +31,12 @@ pub trait Field: Sync {
     fn surface_points(&self) -> Vec<DVec3> {
         Vec::new()
     }
+
+    /// The fewest points from which [`Field::values`] costs less per point in one call than in
+    /// several smaller ones (a fast summation that pays only on many points), or `None` when
+    /// the cost per point does not depend on how many are asked at once (the default).
+    /// Polygonization evaluates larger, partly speculative, batches for such a field.
+    fn fast_batch(&self) -> Option<usize> {
+        None
+    }
 }

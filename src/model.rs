@@ -220,6 +220,11 @@ impl Field for Model {
     fn surface_points(&self) -> Vec<DVec3> {
         self.shape.field().surface_points()
     }
+
+    /// The shape's batch size for fast summation.
+    fn fast_batch(&self) -> Option<usize> {
+        self.shape.field().fast_batch()
+    }
 }
 
 /// The fields read first, to tell a wrong file or version from a damaged one.

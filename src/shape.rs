@@ -77,4 +77,9 @@ impl Field for Shape {
     fn surface_points(&self) -> Vec<DVec3> {
         self.field().surface_points()
     }
+
+    /// The shape's batch size for fast summation.
+    fn fast_batch(&self) -> Option<usize> {
+        self.field().fast_batch()
+    }
 }

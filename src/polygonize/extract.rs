@@ -43,11 +43,19 @@ pub(super) struct EdgeVertex {
 }
 
 impl EdgeVertex {
-    /// The linear index of the edge's other end.
-    pub(super) fn far_end(&self, grid: &Grid) -> usize {
-        let [i, j, k] = grid.voxel(self.base);
-        let d = |bit: u8| (self.direction >> bit & 1) as usize;
-        grid.index([i + d(0), j + d(1), k + d(2)])
+    /// The voxels on the edge's line one step before its base, at its base, at its far end
+    /// and one step past it (`t = -1, 0, 1, 2`), those outside the grid `None`.
+    pub(super) fn line(&self, grid: &Grid) -> [Option<usize>; 4] {
+        let base = grid.voxel(self.base);
+        let d = |bit: u8| (self.direction >> bit & 1) as isize;
+        [-1, 0, 1, 2].map(|t: isize| {
+            let mut v = [0; 3];
+            for (a, bit) in [0u8, 1, 2].into_iter().enumerate() {
+                let c = base[a] as isize + t * d(bit);
+                v[a] = usize::try_from(c).ok().filter(|&c| c < grid.dims[a])?;
+            }
+            Some(grid.index(v))
+        })
     }
 }
 

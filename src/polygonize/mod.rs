@@ -130,7 +130,7 @@ pub fn polygonize_field<F: Field + ?Sized>(field: &F, grid: &Grid) -> Mesh {
 pub fn polygonize_field_dense<F: Field + ?Sized>(field: &F, grid: &Grid) -> Mesh {
     let samples = sample(field, grid);
     let mut surface = extract::extract(&samples, 0.0);
-    let ends = |v: &EdgeVertex| [samples.data[v.base], samples.data[v.far_end(grid)]];
+    let ends = |v: &EdgeVertex| v.line(grid).map(|n| n.map_or(f64::NAN, |n| samples.data[n]));
     refine::refine(field, grid, &mut surface.vertices, ends);
     surface.into_mesh()
 }

@@ -19,6 +19,14 @@
 //! voxel), and the same per-cube code emits the triangles, so every component found is the
 //! dense extraction's, vertex for vertex and triangle for triangle.
 //!
+//! A field whose sums are faster per point in large batches (a treecode over many centres,
+//! [`Field::fast_batch`]) would sum each frontier (a thin sheet of voxels) at a high cost per
+//! point. On a large grid, the surface is therefore first followed on the grid of every other
+//! voxel, and the voxels of the cubes it crosses there are evaluated in one batch with the
+//! lattice: the frontiers then find most of their corners known. The prediction only adds
+//! values: the cubes found are those of the growth without it, but for a value within the fast
+//! summation's error of zero, whose side can depend on the batch it was summed in.
+//!
 //! Only what is visited is stored: values by voxel and visited cubes by index in hash maps, the
 //! crossing cubes in a list.
 
@@ -35,6 +43,10 @@ use crate::grid::Grid;
 
 /// The spacing of the coarse lattice whose sign changes seed the growth, in voxels.
 pub(super) const LATTICE_STEP: usize = 8;
+
+/// The fewest voxels along a grid's longest axis for which the surface is first followed on
+/// the grid of half the resolution, to predict the band of voxels it needs.
+const PREDICT_FROM: usize = 256;
 
 /// A hasher for voxel and edge indices: the murmur3 finalizer, which spreads indices that
 /// differ only in their high bits (voxels of one column) over the whole table.
@@ -70,22 +82,23 @@ type IndexMap<V> = HashMap<usize, V, BuildHasherDefault<IndexHasher>>;
 type IndexSet = HashSet<usize, BuildHasherDefault<IndexHasher>>;
 
 /// Extracts the zero set of `field` on `grid` from the cubes around `seeds` and the coarse
-/// lattice's sign changes, and returns it with the values it read (for refinement).
+/// lattice's sign changes, and returns it with the values it read (for refinement), which
+/// include every voxel on the line of a vertex's edge one step beyond each end, as the dense
+/// extraction has them.
 pub(super) fn track<F: Field + ?Sized>(
     field: &F,
     grid: &Grid,
     seeds: &[DVec3],
-) -> (Surface, impl Fn(&EdgeVertex) -> [f64; 2] + Sync) {
+) -> (Surface, impl Fn(&EdgeVertex) -> [f64; 4] + Sync) {
     let mut tracker = Tracker::new(field, grid);
     if grid.dims.iter().any(|&n| n < 2) {
         return (Surface::default(), tracker.ends());
     }
-    let mut frontier = tracker.seed_cubes(seeds);
-    frontier.extend(tracker.lattice_cubes());
-    while !frontier.is_empty() {
-        frontier = tracker.grow(&frontier);
-    }
-    (tracker.surface(), tracker.ends())
+    tracker.follow(seeds);
+    let surface = tracker.surface();
+    tracker
+        .evaluate(surface.vertices.par_iter().flat_map_iter(|v| v.line(grid)).flatten().collect());
+    (surface, tracker.ends())
 }
 
 /// The state of one surface following.
@@ -116,6 +129,49 @@ impl<'a, F: Field + ?Sized> Tracker<'a, F> {
             visited: IndexSet::default(),
             crossing: Vec::new(),
         }
+    }
+
+    /// Finds the crossing cubes: from the cubes around the seeds and the lattice's sign
+    /// changes, frontier by frontier, after evaluating the predicted band, if any, with the
+    /// lattice.
+    fn follow(&mut self, seeds: &[DVec3]) {
+        let band = self.predicted_band(seeds);
+        let mut frontier = self.seed_cubes(seeds);
+        frontier.extend(self.lattice_cubes(band));
+        while !frontier.is_empty() {
+            frontier = self.grow(&frontier);
+        }
+    }
+
+    /// The voxels the surface will most likely need, for a field that sums faster in large
+    /// batches ([`Field::fast_batch`]) on a grid of at least [`PREDICT_FROM`] voxels along its
+    /// longest axis: the voxels of every cube that crosses the surface followed on the grid of
+    /// every other voxel (itself predicted the same way where it is large enough). None
+    /// otherwise.
+    fn predicted_band(&self, seeds: &[DVec3]) -> Vec<usize> {
+        let grid = self.grid;
+        let half = Grid {
+            dims: grid.dims.map(|n| n.div_ceil(2)),
+            origin: grid.origin,
+            voxel_size: 2.0 * grid.voxel_size,
+        };
+        let large = grid.dims.iter().max().is_some_and(|&n| n >= PREDICT_FROM);
+        if self.field.fast_batch().is_none() || !large || half.dims.iter().any(|&n| n < 2) {
+            return Vec::new();
+        }
+        let mut coarse = Tracker::new(self.field, &half);
+        coarse.follow(seeds);
+        coarse
+            .crossing
+            .par_iter()
+            .flat_map_iter(|&cube| {
+                let base = half.voxel(cube).map(|c| 2 * c);
+                (0..27).filter_map(move |n| {
+                    let v = [base[0] + n / 9, base[1] + n / 3 % 3, base[2] + n % 3];
+                    (0..3).all(|a| v[a] < grid.dims[a]).then(|| grid.index(v))
+                })
+            })
+            .collect()
     }
 
     /// Evaluates the field at the voxels not yet known among `voxels`, in one batch.
@@ -169,14 +225,16 @@ impl<'a, F: Field + ?Sized> Tracker<'a, F> {
 
     /// A cube holding each crossed grid edge on the coarse lattice's edges whose ends lie on
     /// opposite sides. The lattice has a node every [`LATTICE_STEP`] voxels and at the last
-    /// voxel along each axis.
-    fn lattice_cubes(&mut self) -> Vec<usize> {
+    /// voxel along each axis. The lattice's nodes are evaluated in one batch with `band`.
+    fn lattice_cubes(&mut self, band: Vec<usize>) -> Vec<usize> {
         let [xs, ys, zs] = &self.grid.dims.map(lattice_nodes);
         let nodes: Vec<[usize; 3]> = xs
             .par_iter()
             .flat_map_iter(|&i| ys.iter().flat_map(move |&j| zs.iter().map(move |&k| [i, j, k])))
             .collect();
-        self.evaluate(nodes.par_iter().map(|&v| self.grid.index(v)).collect());
+        let mut voxels: Vec<usize> = nodes.par_iter().map(|&v| self.grid.index(v)).collect();
+        voxels.extend(band);
+        self.evaluate(voxels);
         let this = &*self;
         let edges: Vec<LatticeEdge> = nodes
             .par_iter()
@@ -318,10 +376,13 @@ impl<'a, F: Field + ?Sized> Tracker<'a, F> {
         EdgeVertex { position: self.grid.to_world(g), base, direction }
     }
 
-    /// The values at the ends of a vertex's edge, for refinement.
-    fn ends(self) -> impl Fn(&EdgeVertex) -> [f64; 2] + Sync {
+    /// The values along a vertex's edge line at `t = -1, 0, 1, 2` for refinement (NaN outside
+    /// the grid), all of them evaluated, as the dense extraction has them.
+    fn ends(self) -> impl Fn(&EdgeVertex) -> [f64; 4] + Sync {
         let (grid, values) = (self.grid, self.values);
-        move |v: &EdgeVertex| [values[&v.base], values[&v.far_end(&grid)]]
+        move |v: &EdgeVertex| {
+            v.line(&grid).map(|n| n.and_then(|n| values.get(&n).copied()).unwrap_or(f64::NAN))
+        }
     }
 }
 

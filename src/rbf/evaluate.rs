@@ -251,6 +251,11 @@ pub(super) fn values(
     values_with(Isa::selected(), Summation::Auto, implicit, count, point)
 }
 
+/// The fewest points at which [`values`] sums `implicit` by the treecode, if it ever does.
+pub(super) fn fast_batch(implicit: &Implicit) -> Option<usize> {
+    (implicit.dim == 3).then(|| treecode::least_points(implicit.len())).flatten()
+}
+
 /// [`values`] by the direct sum, whatever the number of centres and points.
 pub(super) fn values_exact(
     implicit: &Implicit,

@@ -463,4 +463,9 @@ impl Field for Implicit {
             .map(|c| DVec3::from_slice(&c.position))
             .collect()
     }
+
+    /// The fewest points the treecode takes (see [`Field::fast_batch`]).
+    fn fast_batch(&self) -> Option<usize> {
+        evaluate::fast_batch(self)
+    }
 }

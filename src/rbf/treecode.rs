@@ -89,7 +89,13 @@ impl Params {
 /// Whether `centres` centres at `points` points are summed faster by the treecode than
 /// directly.
 pub(super) fn pays(centres: usize, points: usize) -> bool {
-    centres >= 5000 && points >= 200_000
+    least_points(centres).is_some_and(|least| points >= least)
+}
+
+/// The fewest points at which a function of `centres` centres is summed by the treecode, if
+/// it has enough centres to be summed that way at all.
+pub(super) fn least_points(centres: usize) -> Option<usize> {
+    (centres >= 5000).then_some(200_000)
 }
 
 /// Points (or centres) given per axis.
