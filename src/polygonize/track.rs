@@ -96,8 +96,14 @@ pub(super) fn track<F: Field + ?Sized>(
     }
     tracker.follow(seeds);
     let surface = tracker.surface();
-    tracker
-        .evaluate(surface.vertices.par_iter().flat_map_iter(|v| v.line(grid)).flatten().collect());
+    let lines: Vec<usize> = surface
+        .vertices
+        .par_iter()
+        .flat_map_iter(|v| v.line(grid))
+        .flatten()
+        .filter(|n| !tracker.values.contains_key(n))
+        .collect();
+    tracker.evaluate(lines);
     (surface, tracker.ends())
 }
 
