@@ -27,8 +27,8 @@
 //! values: the cubes found are those of the growth without it, but for a value within the fast
 //! summation's error of zero, whose side can depend on the batch it was summed in.
 //!
-//! Only what is visited is stored: values by voxel and visited cubes by index in hash maps, the
-//! crossing cubes in a list.
+//! Only what is visited is stored: values in bricks of 4^3 voxels made as the surface reaches
+//! them, visited cubes by index in a hash set, the crossing cubes in a list.
 
 use std::collections::{HashMap, HashSet};
 use std::hash::{BuildHasherDefault, Hasher};
@@ -81,6 +81,63 @@ impl Hasher for IndexHasher {
 type IndexMap<V> = HashMap<usize, V, BuildHasherDefault<IndexHasher>>;
 type IndexSet = HashSet<usize, BuildHasherDefault<IndexHasher>>;
 
+/// Voxels along each axis of a [`Brick`]: a power of two.
+const BRICK: usize = 4;
+
+/// The values of a block of `BRICK^3` voxels, and which of them are known.
+struct Brick {
+    values: [f64; BRICK * BRICK * BRICK],
+    known: [u64; BRICK * BRICK * BRICK / 64],
+}
+
+/// The field's values by voxel, kept in bricks made as the surface reaches them: neighbouring
+/// voxels, which the growth reads together, stay together in memory, and the hash map holds a
+/// brick where it would hold each voxel.
+struct Bricks {
+    grid: Grid,
+    /// Bricks along each axis.
+    counts: [usize; 3],
+    bricks: IndexMap<Box<Brick>>,
+}
+
+impl Bricks {
+    fn new(grid: &Grid) -> Bricks {
+        let counts = grid.dims.map(|n| n.div_ceil(BRICK));
+        Bricks { grid: *grid, counts, bricks: IndexMap::default() }
+    }
+
+    /// A voxel's brick and its place in it.
+    fn locate(&self, voxel: usize) -> (usize, usize) {
+        let [i, j, k] = self.grid.voxel(voxel);
+        let [_, cy, cz] = self.counts;
+        let brick = ((i / BRICK) * cy + j / BRICK) * cz + k / BRICK;
+        let place = ((i % BRICK) * BRICK + j % BRICK) * BRICK + k % BRICK;
+        (brick, place)
+    }
+
+    fn get(&self, voxel: usize) -> Option<f64> {
+        let (brick, place) = self.locate(voxel);
+        let b = self.bricks.get(&brick)?;
+        (b.known[place / 64] >> (place % 64) & 1 == 1).then(|| b.values[place])
+    }
+
+    fn contains(&self, voxel: usize) -> bool {
+        self.get(voxel).is_some()
+    }
+
+    fn insert(&mut self, voxel: usize, value: f64) {
+        let (brick, place) = self.locate(voxel);
+        let b = self.bricks.entry(brick).or_insert_with(|| {
+            Box::new(Brick {
+                values: [0.0; BRICK * BRICK * BRICK],
+                known: [0; BRICK * BRICK * BRICK / 64],
+            })
+        });
+        b.values[place] = value;
+        b.known[place / 64] |= 1 << (place % 64);
+    }
+}
+
 /// Extracts the zero set of `field` on `grid` from the cubes around `seeds` and the coarse
 /// lattice's sign changes, and returns it with the values it read (for refinement), which
 /// include every voxel on the line of a vertex's edge one step beyond each end, as the dense
@@ -101,7 +158,7 @@ pub(super) fn track<F: Field + ?Sized>(
         .par_iter()
         .flat_map_iter(|v| v.line(grid))
         .flatten()
-        .filter(|n| !tracker.values.contains_key(n))
+        .filter(|&n| !tracker.values.contains(n))
         .collect();
     tracker.evaluate(lines);
     (surface, tracker.ends())
@@ -114,7 +171,7 @@ struct Tracker<'a, F: ?Sized> {
     /// The linear offsets of a cube's corners from its base voxel, by corner number.
     corners: [usize; 8],
     /// The field's value at every voxel evaluated so far.
-    values: IndexMap<f64>,
+    values: Bricks,
     /// Every cube (by its base voxel) that has been in a frontier.
     visited: IndexSet,
     /// The cubes found to cross the surface.
@@ -131,7 +188,7 @@ impl<'a, F: Field + ?Sized> Tracker<'a, F> {
             field,
             grid: *grid,
             corners,
-            values: IndexMap::default(),
+            values: Bricks::new(grid),
             visited: IndexSet::default(),
             crossing: Vec::new(),
         }
@@ -185,17 +242,19 @@ impl<'a, F: Field + ?Sized> Tracker<'a, F> {
         voxels.par_sort_unstable();
         voxels.dedup();
         let voxels: Vec<usize> =
-            voxels.into_par_iter().filter(|v| !self.values.contains_key(v)).collect();
+            voxels.into_par_iter().filter(|&v| !self.values.contains(v)).collect();
         let points: Vec<DVec3> =
             voxels.par_iter().map(|&v| self.grid.position(self.grid.voxel(v))).collect();
         let values = self.field.values(&points);
         assert_eq!(values.len(), points.len(), "Field::values must return one value per point");
-        self.values.extend(voxels.into_iter().zip(values));
+        for (v, value) in voxels.into_iter().zip(values) {
+            self.values.insert(v, value);
+        }
     }
 
     /// The value at a voxel already evaluated.
     fn value(&self, voxel: usize) -> f64 {
-        self.values[&voxel]
+        self.values.get(voxel).expect("the growth reads only voxels it has evaluated")
     }
 
     /// The cubes not yet visited among `cubes`, now marked visited.
@@ -387,7 +446,7 @@ impl<'a, F: Field + ?Sized> Tracker<'a, F> {
     fn ends(self) -> impl Fn(&EdgeVertex) -> [f64; 4] + Sync {
         let (grid, values) = (self.grid, self.values);
         move |v: &EdgeVertex| {
-            v.line(&grid).map(|n| n.and_then(|n| values.get(&n).copied()).unwrap_or(f64::NAN))
+            v.line(&grid).map(|n| n.and_then(|n| values.get(n)).unwrap_or(f64::NAN))
         }
     }
 }
