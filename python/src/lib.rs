@@ -9,6 +9,7 @@
 
 use pyo3::prelude::*;
 
+mod batch;
 mod errors;
 mod inputs;
 mod model;
@@ -22,5 +23,9 @@ fn _implicitize(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::load, m)?)?;
     m.add_function(wrap_pyfunction!(model::csg, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::batch_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::batch_convert, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::batch_failed, m)?)?;
+    m.add_function(wrap_pyfunction!(batch::batch_manifest, m)?)?;
     Ok(())
 }
