@@ -82,8 +82,10 @@
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
 //! | combine models: union, intersection, difference | [`csg`] | 1 |
 //! | morph one model into another | [`morph`] | 1, 7 |
+//! | convert many meshes, resumably, with a manifest | [`batch`] | |
 #![deny(missing_docs)]
 
+pub mod batch;
 pub mod csg;
 pub mod distance;
 pub mod error;

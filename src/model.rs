@@ -135,8 +135,9 @@ impl Model {
         self.report = Some(report);
     }
 
-    /// Writes the model as JSON to `path`.
-    pub fn save(&self, path: &Path) -> Result<()> {
+    /// The model file's contents: pretty-printed JSON ending in a newline, exactly what
+    /// [`Model::save`] writes.
+    pub fn to_json(&self) -> String {
         let file = ModelFile {
             format: FORMAT.into(),
             version: VERSION,
@@ -146,20 +147,31 @@ impl Model {
             shape: ShapeFile::of(&self.shape),
             report: self.report.clone(),
         };
-        let json = serde_json::to_string_pretty(&file)
-            .expect("finite numbers and string keys always serialize");
-        std::fs::write(path, json + "\n").map_err(|e| Error::io(path, e))
+        serde_json::to_string_pretty(&file)
+            .expect("finite numbers and string keys always serialize")
+            + "\n"
+    }
+
+    /// Writes the model as JSON to `path`.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        std::fs::write(path, self.to_json()).map_err(|e| Error::io(path, e))
     }
 
     /// Reads a model from `path`. A file that is not JSON, not a model, of another version, or
     /// whose parts do not fit together gives an error naming the file.
     pub fn load(path: &Path) -> Result<Model> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Model::from_json(&bytes, path)
+    }
+
+    /// Reads a model from the contents of a model file; `path` names it in errors (the file
+    /// it came from, or a description). The checks are those of [`Model::load`].
+    pub fn from_json(bytes: &[u8], path: &Path) -> Result<Model> {
         let json_error = |e: serde_json::Error| {
             let at = (e.line() > 0).then_some(Location::Line(e.line()));
             Error::parse(path, at, format!("not a valid model file: {e}"))
         };
-        let header: Header = serde_json::from_slice(&bytes).map_err(json_error)?;
+        let header: Header = serde_json::from_slice(bytes).map_err(json_error)?;
         if header.format.as_deref() != Some(FORMAT) {
             return Err(Error::parse(
                 path,
@@ -177,7 +189,7 @@ impl Model {
                 ),
             ));
         }
-        let file: ModelFile = serde_json::from_slice(&bytes).map_err(json_error)?;
+        let file: ModelFile = serde_json::from_slice(bytes).map_err(json_error)?;
         if file.sign != SIGN {
             return Err(Error::parse(
                 path,

@@ -74,6 +74,8 @@ pub struct Fitted {
     /// The fit's figures (the paper's Tables 1 and 2), running times included; the goal's
     /// voxelization and signed distance count as signed distance time, as in Table 2.
     pub report: FitReport,
+    /// How the voxelization decided the mesh's inside.
+    pub inside: voxelize::Inside,
 }
 
 /// A mesh voxelized into its goal, ready to be fitted.
@@ -82,6 +84,7 @@ pub struct Prepared<'a> {
     mesh: &'a Mesh,
     bounds: Aabb,
     goal: Goal,
+    inside: voxelize::Inside,
     options: MeshFitOptions,
     goal_seconds: f64,
 }
@@ -177,15 +180,17 @@ impl<'a> Prepared<'a> {
         Isa::from_env()?;
         let bounds = mesh_bounds(mesh, source)?;
         let clock = Instant::now();
-        let goal = goal_of_mesh(
-            mesh,
-            options.resolution,
-            &options.voxelize,
-            &options.fit.regularity,
-            source,
-        )?;
+        let grid = Grid::around(&bounds, options.resolution).map_err(naming(source))?;
+        let (density, inside) = voxelize::voxelize_with_inside(mesh, &grid, &options.voxelize)
+            .map_err(naming(source))?;
+        let goal = Goal::from_density(density, &options.fit.regularity);
         let goal_seconds = clock.elapsed().as_secs_f64();
-        Ok(Prepared { mesh, bounds, goal, options: options.clone(), goal_seconds })
+        Ok(Prepared { mesh, bounds, goal, inside, options: options.clone(), goal_seconds })
+    }
+
+    /// How the voxelization decided the mesh's inside.
+    pub fn inside(&self) -> voxelize::Inside {
+        self.inside
     }
 
     /// The grid the mesh was voxelized on.
@@ -218,23 +223,27 @@ impl<'a> Prepared<'a> {
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
         let model = Model::from_implicit(fitted.implicit, self.bounds, Some(*self.goal.grid()));
-        Ok(Fitted { model, report })
+        Ok(Fitted { model, report, inside: self.inside })
     }
 }
 
 impl Fitted {
-    /// Writes the model file with its report embedded and records the file's size in the
-    /// report (`model_bytes`: the size without the embedded report).
+    /// Embeds the report in the model as the model file keeps it, and records the file's size
+    /// in the report (`model_bytes`: the size without the embedded report).
     ///
     /// The embedded report leaves out the running times, so that the same mesh, options and
     /// seed give the same model file byte for byte; [`Fitted::report`] keeps them.
+    pub fn finish(&mut self) {
+        self.report.model_bytes = Some(self.model.to_json().len() as u64);
+        self.model.set_report(without_timings(&self.report));
+    }
+
+    /// Writes the model file with its report embedded ([`Fitted::finish`]).
     ///
     /// # Errors
     /// The file cannot be written.
     pub fn save(&mut self, path: &Path) -> Result<()> {
-        self.model.save(path)?;
-        self.report.model_bytes = std::fs::metadata(path).ok().map(|m| m.len());
-        self.model.set_report(without_timings(&self.report));
+        self.finish();
         self.model.save(path)
     }
 }

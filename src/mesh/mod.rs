@@ -76,6 +76,36 @@ impl Mesh {
     pub fn corners(&self, t: usize) -> [DVec3; 3] {
         self.triangles[t].map(|i| self.vertices[i as usize])
     }
+
+    /// The edges not shared by exactly two triangles (holes' rims, non-manifold edges), with
+    /// vertices at the same position counted as one, so a closed STL file (one vertex per
+    /// corner) has none. 0 means the mesh is watertight. Triangles indexing a missing vertex
+    /// are left out.
+    pub fn open_edges(&self) -> usize {
+        let mut ids = std::collections::HashMap::new();
+        let id: Vec<usize> = self
+            .vertices
+            .iter()
+            .map(|p| {
+                let next = ids.len();
+                *ids.entry(p.to_array().map(f64::to_bits)).or_insert(next)
+            })
+            .collect();
+        let mut edges = std::collections::HashMap::<(usize, usize), usize>::new();
+        for t in &self.triangles {
+            let Some(c) =
+                t.iter().map(|&i| id.get(i as usize).copied()).collect::<Option<Vec<_>>>()
+            else {
+                continue;
+            };
+            for (a, b) in
+                [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])].into_iter().filter(|(a, b)| a != b)
+            {
+                *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        edges.values().filter(|&&n| n != 2).count()
+    }
 }
 
 /// What a reader repaired on its way, for the caller to report.

@@ -50,8 +50,10 @@ pub use raster::Shading;
 
 use crate::error::{Error, Result};
 use crate::field::Field;
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, DVec3};
+use crate::grid::Grid;
 use crate::mesh::Mesh;
+use crate::model::Model;
 
 use color::Surface;
 
@@ -68,6 +70,31 @@ pub fn render_field<F: Field + ?Sized>(
     settings: March,
 ) -> Result<Image> {
     march::march(field, bounds, camera, Surface::Colored(coloring), settings)
+}
+
+/// The fraction of a model's longest extent added to its bounds on every side before marching
+/// when the model has no fit grid, so that a surface bulging a little past them is not clipped.
+pub const MODEL_PAD: f64 = 0.05;
+
+/// The box a model's function is marched through: the grid it was fitted on (its bounds and
+/// margins, where the fit measured the surface), or else its bounds grown on every side by
+/// [`MODEL_PAD`] of their longest extent.
+pub fn march_bounds(model: &Model) -> Aabb {
+    match model.grid() {
+        Some(grid) => grid_box(grid),
+        None => {
+            let bounds = model.bounds();
+            let pad = MODEL_PAD * bounds.size().max_element();
+            Aabb { min: bounds.min - pad, max: bounds.max + pad }
+        }
+    }
+}
+
+/// The box the voxels of `grid` fill.
+pub fn grid_box(grid: &Grid) -> Aabb {
+    let [nx, ny, nz] = grid.dims;
+    let last = DVec3::new(nx as f64, ny as f64, nz as f64) - 0.5;
+    Aabb { min: grid.to_world(DVec3::splat(-0.5)), max: grid.to_world(last) }
 }
 
 /// Draws `mesh` seen by `camera` with a z-buffer.

@@ -50,7 +50,10 @@ mod orient;
 mod rays;
 mod winding;
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use rayon::prelude::*;
+use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::geometry::DVec3;
@@ -75,6 +78,28 @@ impl Default for VoxelizeOptions {
     }
 }
 
+/// A winding number within this of 1/2 counts as "near one half" in [`Inside`].
+pub const NEAR_HALF: f64 = 0.25;
+
+/// How the inside of a mesh was decided: whether the mesh is closed, and how often the rays
+/// could not settle a voxel centre so that the generalized winding number decided it.
+///
+/// The winding number is evaluated only where the rays disagree (or too few vote), so the
+/// fractions count those voxel centres; elsewhere the rays agree and it is not needed. On a
+/// watertight mesh both fractions are (about) 0; on an open one, a high share of centres near
+/// one half means much of the inside was decided across holes, where the result is a guess.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Inside {
+    /// Every edge is shared by exactly two triangles ([`Mesh::open_edges`] is 0).
+    pub watertight: bool,
+    /// The edges not shared by exactly two triangles.
+    pub open_edges: usize,
+    /// The fraction of voxel centres decided by the winding number.
+    pub winding_decided: f64,
+    /// The fraction of voxel centres decided by a winding number within [`NEAR_HALF`] of 1/2.
+    pub winding_near_half: f64,
+}
+
 /// Voxelizes `mesh` on `grid`: densities in `[0, 1]`, 1 inside, 0 outside (see the module doc
 /// for the method and what it guarantees).
 ///
@@ -82,6 +107,42 @@ impl Default for VoxelizeOptions {
 /// not finite, the grid is empty or its voxel size is not positive, or the supersampling is
 /// not odd and in 1..=15.
 pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<Volume<f32>> {
+    Ok(voxelize_counting(mesh, grid, options)?.0)
+}
+
+/// [`voxelize`], and how the inside was decided.
+///
+/// # Errors
+/// As [`voxelize`].
+pub fn voxelize_with_inside(
+    mesh: &Mesh,
+    grid: &Grid,
+    options: &VoxelizeOptions,
+) -> Result<(Volume<f32>, Inside)> {
+    let (volume, counts) = voxelize_counting(mesh, grid, options)?;
+    let open_edges = mesh.open_edges();
+    let fraction = |n: &AtomicUsize| n.load(Ordering::Relaxed) as f64 / grid.len() as f64;
+    let inside = Inside {
+        watertight: open_edges == 0,
+        open_edges,
+        winding_decided: fraction(&counts.decided),
+        winding_near_half: fraction(&counts.near_half),
+    };
+    Ok((volume, inside))
+}
+
+/// The voxel centres the winding number decided, and those of them near one half.
+#[derive(Default)]
+struct WindingCounts {
+    decided: AtomicUsize,
+    near_half: AtomicUsize,
+}
+
+fn voxelize_counting(
+    mesh: &Mesh,
+    grid: &Grid,
+    options: &VoxelizeOptions,
+) -> Result<(Volume<f32>, WindingCounts)> {
     check(mesh, grid, options)?;
     let s = options.supersampling;
     let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
@@ -98,7 +159,7 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
         || [0, 1, 2].map(|axis| Rays::cast(axis, &triangles, grid.dims, s)),
         || Winding::new(triangles.clone()),
     );
-    let classifier = Classifier { rays, winding, s };
+    let classifier = Classifier { rays, winding, s, counts: WindingCounts::default() };
     let [_, ny, nz] = grid.dims;
     let mut centre = vec![false; grid.len()];
     centre.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
@@ -121,7 +182,7 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
             }
         }
     });
-    Ok(Volume { grid: *grid, data })
+    Ok((Volume { grid: *grid, data }, classifier.counts))
 }
 
 fn check(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<()> {
@@ -184,6 +245,8 @@ struct Classifier {
     rays: [Rays; 3],
     winding: Winding,
     s: usize,
+    /// Counted over voxel centres only.
+    counts: WindingCounts,
 }
 
 /// The votes of the rays at one point.
@@ -229,7 +292,14 @@ impl Classifier {
             let hits = rays.ray(voxel[u], voxel[v], centre_ray);
             votes.add(vote(hits, voxel[axis] as f64));
         }
-        self.decide(votes, DVec3::from_array(voxel.map(|x| x as f64)))
+        votes.verdict().unwrap_or_else(|| {
+            let w = self.winding.at(DVec3::from_array(voxel.map(|x| x as f64)));
+            self.counts.decided.fetch_add(1, Ordering::Relaxed);
+            if (w - 0.5).abs() < NEAR_HALF {
+                self.counts.near_half.fetch_add(1, Ordering::Relaxed);
+            }
+            w > 0.5
+        })
     }
 
     /// The offset of sub-sample `b` from its voxel's centre.

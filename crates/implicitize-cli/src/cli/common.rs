@@ -45,6 +45,11 @@ impl Progress {
         Progress { quiet }
     }
 
+    /// Whether progress is off.
+    pub fn is_quiet(&self) -> bool {
+        self.quiet
+    }
+
     /// Prints a line on stderr unless quiet.
     pub fn line(&self, message: impl AsRef<str>) {
         if !self.quiet {

@@ -76,7 +76,8 @@ pub struct FitArgs {
 }
 
 impl FitArgs {
-    fn options(&self) -> MeshFitOptions {
+    /// The library's options for these flags.
+    pub fn options(&self) -> MeshFitOptions {
         let mut options = self.settings.options();
         if self.method == Method::Naive && self.settings.max_constraints.is_none() {
             options.max_constraints = fit::naive::DEFAULT_CONSTRAINTS;

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod batch;
 mod common;
 mod csg;
 mod eval;
@@ -35,6 +36,8 @@ enum Command {
     Demo(fit::DemoCommand),
     /// Fit a variational implicit surface to a mesh (paper 5).
     Fit(fit::FitCommand),
+    /// Fit many meshes in parallel into one folder, with a manifest of the outcomes.
+    Batch(batch::BatchCommand),
     /// Fit a 2D implicit curve to the shapes of a PNG image, and draw the paper's figure 2.
     Fit2d(fit2d::Fit2dCommand),
     /// Polygonize a model's zero set into a mesh file.
@@ -80,6 +83,7 @@ fn dispatch(command: &Command, progress: common::Progress) -> anyhow::Result<()>
     match command {
         Command::Demo(args) => fit::demo(args, progress),
         Command::Fit(args) => fit::run(args, progress),
+        Command::Batch(args) => batch::run(args, progress),
         Command::Fit2d(args) => fit2d::run(args, progress),
         Command::Mesh(args) => polygonize::run(args, progress),
         Command::Voxelize(args) => volume::run(args, volume::VolumeKind::Density, progress),

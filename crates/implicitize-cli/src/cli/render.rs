@@ -15,18 +15,16 @@ use implicitize::figure3::figure3;
 use implicitize::fit::Goal;
 use implicitize::metrics::RegularityOptions;
 use implicitize::model::Model;
-use implicitize::render::{Camera, Coloring, Image, March, Shading, render_field, render_mesh};
+use implicitize::render::{
+    Camera, Coloring, Image, March, Shading, grid_box, march_bounds, render_field, render_mesh,
+};
 use implicitize::voxelize::VoxelizeOptions;
-use implicitize::{Aabb, DVec3, Field, Grid, Mesh, pipeline};
+use implicitize::{Aabb, Field, Grid, Mesh, pipeline};
 
 use super::common::{GridArgs, Progress, read_mesh};
 
 /// The default view: a three-quarter view from the front right and a little above.
 const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
-
-/// The fraction of a model's longest extent added to its bounds on every side before marching
-/// when the model has no fit grid, so that a surface bulging a little past them is not clipped.
-const MODEL_PAD: f64 = 0.05;
 
 /// How the surface is coloured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -103,27 +101,6 @@ impl Shape {
                 .with_context(|| format!("{}: the mesh has no triangles", path.display())),
         }
     }
-}
-
-/// The box a model's function is marched through: the grid it was fitted on (its bounds and
-/// margins, where the fit measured the surface), or else its bounds grown on every side by
-/// [`MODEL_PAD`] of their longest extent.
-fn march_bounds(model: &Model) -> Aabb {
-    match model.grid() {
-        Some(grid) => grid_box(grid),
-        None => {
-            let bounds = model.bounds();
-            let pad = MODEL_PAD * bounds.size().max_element();
-            Aabb { min: bounds.min - pad, max: bounds.max + pad }
-        }
-    }
-}
-
-/// The box the voxels of `grid` fill.
-fn grid_box(grid: &Grid) -> Aabb {
-    let [nx, ny, nz] = grid.dims;
-    let last = DVec3::new(nx as f64, ny as f64, nz as f64) - 0.5;
-    Aabb { min: grid.to_world(DVec3::splat(-0.5)), max: grid.to_world(last) }
 }
 
 /// The smallest box holding both.

@@ -1,0 +1,172 @@
+"""implicitize: turn polygon meshes into compact, smooth variational implicit surfaces.
+
+A Python front end to the Rust library and command-line tool of the same name (Yngve and
+Turk, "Robust creation of implicit surfaces from polygonal meshes", IEEE TVCG 2002).
+
+Meshes are given as a path (OBJ, PLY, STL or OFF), as ``(vertices, faces)`` arrays, or as any
+object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``). Values are positive inside
+and negative outside, positions in the mesh's own units, errors in voxels.
+
+>>> import implicitize, numpy as np
+>>> model = implicitize.fit("bunny.obj", resolution=100)        # doctest: +SKIP
+>>> model(np.zeros((1, 3)))                                     # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from ._implicitize import Model
+from ._implicitize import csg as _csg
+from ._implicitize import fit as _fit
+from ._implicitize import load as _load
+from ._implicitize import volume as _volume
+
+__all__ = [
+    "Model",
+    "Volume",
+    "voxelize",
+    "signed_distance",
+    "fit",
+    "load",
+    "union",
+    "intersection",
+    "difference",
+]
+
+
+@dataclass(frozen=True)
+class Volume:
+    """A volume on a voxel grid, as the CLI writes it (``.npy`` and its ``.json``).
+
+    ``values`` is float32, indexed ``[i, j, k]`` in C order; voxel ``(i, j, k)`` is centred at
+    ``origin + voxel_size * (i, j, k)``, in mesh units.
+    """
+
+    values: np.ndarray
+    origin: Tuple[float, float, float]
+    voxel_size: float
+
+    @property
+    def dims(self) -> Tuple[int, int, int]:
+        """The grid's size ``(nx, ny, nz)``."""
+        nx, ny, nz = self.values.shape
+        return (nx, ny, nz)
+
+
+def _mesh_arg(mesh: Any) -> Any:
+    """A path as a string, or ``(vertices, faces)`` as float64 and int64 arrays."""
+    if isinstance(mesh, (str, os.PathLike)):
+        return os.fspath(mesh)
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        vertices, faces = mesh.vertices, mesh.faces
+    elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
+        vertices, faces = mesh
+    else:
+        raise TypeError(
+            "mesh: expected a path, (vertices, faces) arrays or an object with "
+            f".vertices and .faces, not {type(mesh).__name__}"
+        )
+    try:
+        vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"vertices: not an array of numbers: {e}") from None
+    faces = np.asarray(faces)
+    if faces.size and not np.issubdtype(faces.dtype, np.integer):
+        raise ValueError(f"faces: expected integer vertex indices, got {faces.dtype}")
+    return vertices, np.ascontiguousarray(faces, dtype=np.int64)
+
+
+def _grid_args(resolution: Optional[int], dims: Optional[Sequence[int]]) -> Any:
+    return resolution, (None if dims is None else [int(d) for d in dims])
+
+
+def voxelize(
+    mesh: Any, resolution: Optional[int] = None, dims: Optional[Sequence[int]] = None
+) -> Volume:
+    """Densities in [0, 1], 1 inside (paper 4.1), as ``implicitize voxelize``.
+
+    ``resolution`` voxels along the mesh's longest axis, margins included (default 200), or
+    an exact ``dims=(nx, ny, nz)``.
+    """
+    values, origin, voxel_size = _volume(_mesh_arg(mesh), "density", *_grid_args(resolution, dims))
+    return Volume(values, origin, voxel_size)
+
+
+def signed_distance(
+    mesh: Any, resolution: Optional[int] = None, dims: Optional[Sequence[int]] = None
+) -> Volume:
+    """The signed Euclidean distance in voxels, inside positive (paper 4.2), as ``implicitize sdf``.
+
+    ``resolution`` and ``dims`` as in :func:`voxelize`.
+    """
+    values, origin, voxel_size = _volume(
+        _mesh_arg(mesh), "signed_distance", *_grid_args(resolution, dims)
+    )
+    return Volume(values, origin, voxel_size)
+
+
+def fit(
+    mesh: Any,
+    resolution: Optional[int] = 200,
+    target_error: float = 2.0,
+    seed: int = 1,
+    max_constraints: Optional[int] = None,
+    method: str = "iterative",
+    progress: bool = False,
+    *,
+    dims: Optional[Sequence[int]] = None,
+    max_iterations: Optional[int] = None,
+    subvoxel: bool = False,
+    full_resolution: bool = False,
+) -> Model:
+    """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``.
+
+    ``resolution`` voxels along the longest axis (or ``dims=``); stops once the max error E is
+    at most ``target_error`` voxels; ``seed`` seeds every random choice (same seed, same
+    model file); ``method`` is ``"iterative"`` (paper 5) or ``"naive"`` (paper 3.2);
+    ``progress`` prints one line per iteration on stderr. The GIL is released while fitting.
+    """
+    if dims is not None:
+        resolution = None
+    return _fit(
+        _mesh_arg(mesh),
+        *_grid_args(resolution, dims),
+        target_error=float(target_error),
+        seed=int(seed),
+        max_constraints=max_constraints,
+        method=method,
+        max_iterations=max_iterations,
+        subvoxel=subvoxel,
+        full_resolution=full_resolution,
+        progress=progress,
+    )
+
+
+def load(path: Union[str, "os.PathLike[str]"]) -> Model:
+    """Reads a model file written by the CLI (``fit``, ``solve``, ``csg``) or ``Model.save``."""
+    return _load(os.fspath(path))
+
+
+def union(a: Model, b: Model, blend: float = 0.0) -> Model:
+    """Inside either model; a fillet of about ``blend`` mesh units where they meet (0: sharp)."""
+    return _csg("union", a, b, float(blend))
+
+
+def intersection(a: Model, b: Model, blend: float = 0.0) -> Model:
+    """Inside both models; ``blend`` as in :func:`union`."""
+    return _csg("intersection", a, b, float(blend))
+
+
+def difference(a: Model, b: Model, blend: float = 0.0) -> Model:
+    """Inside ``a`` and outside ``b``; ``blend`` as in :func:`union`."""
+    return _csg("difference", a, b, float(blend))
+
+
+def _model_from_state(json: bytes, report: Optional[str]) -> Model:
+    """Rebuilds a pickled model (see ``Model.__reduce__``)."""
+    return Model._from_state(json, report)

@@ -1,0 +1,93 @@
+"""Type stubs of implicitize: see the docstrings in __init__.py and the extension module."""
+
+import os
+from typing import Any, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, "os.PathLike[str]"]
+_Points = npt.ArrayLike
+_Vec3 = Tuple[float, float, float]
+
+class Volume:
+    """A volume on a voxel grid: float32 ``values[i, j, k]`` (C order), voxel (i, j, k)
+    centred at ``origin + voxel_size * (i, j, k)``."""
+
+    values: npt.NDArray[np.float32]
+    origin: _Vec3
+    voxel_size: float
+    def __init__(
+        self, values: npt.NDArray[np.float32], origin: _Vec3, voxel_size: float
+    ) -> None: ...
+    @property
+    def dims(self) -> Tuple[int, int, int]:
+        """The grid's size (nx, ny, nz)."""
+
+class Model:
+    """A variational implicit surface: positive inside, negative outside, mesh units."""
+
+    def __call__(self, points: _Points) -> npt.NDArray[np.float64]:
+        """Values at (N, 3) points, float64; the same numbers as ``implicitize eval``."""
+    def gradient(self, points: _Points) -> npt.NDArray[np.float64]:
+        """Gradients at (N, 3) points, (N, 3) float64, pointing inside."""
+    @property
+    def dim(self) -> int:
+        """The number of coordinates the model reads: 3 (2 for a curve, 4 for a morph)."""
+    @property
+    def bounds(self) -> Tuple[_Vec3, _Vec3]:
+        """The shape's bounds: ((xmin, ymin, zmin), (xmax, ymax, zmax))."""
+    @property
+    def report(self) -> Optional[dict[str, Any]]:
+        """The fit report (the CLI's report.json), or None."""
+    def save(self, path: _Path) -> None:
+        """Writes the model file, as ``implicitize fit -o``."""
+    def to_mesh(
+        self, resolution: int = 200, dense: bool = False
+    ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.uint32]]:
+        """The zero set polygonized: (vertices (N, 3), faces (M, 3)), as ``implicitize mesh``."""
+    def render(
+        self,
+        size: Tuple[int, int] = (800, 600),
+        view: Tuple[float, float] = (35.0, 20.0),
+        color: str = "plain",
+    ) -> npt.NDArray[np.uint8]:
+        """A picture (height, width, 3) of the surface on white, as ``implicitize render``."""
+
+def voxelize(
+    mesh: Any, resolution: Optional[int] = None, dims: Optional[Sequence[int]] = None
+) -> Volume:
+    """Densities in [0, 1], 1 inside, as ``implicitize voxelize``."""
+
+def signed_distance(
+    mesh: Any, resolution: Optional[int] = None, dims: Optional[Sequence[int]] = None
+) -> Volume:
+    """The signed distance in voxels, inside positive, as ``implicitize sdf``."""
+
+def fit(
+    mesh: Any,
+    resolution: Optional[int] = 200,
+    target_error: float = 2.0,
+    seed: int = 1,
+    max_constraints: Optional[int] = None,
+    method: str = "iterative",
+    progress: bool = False,
+    *,
+    dims: Optional[Sequence[int]] = None,
+    max_iterations: Optional[int] = None,
+    subvoxel: bool = False,
+    full_resolution: bool = False,
+) -> Model:
+    """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``."""
+
+def load(path: _Path) -> Model:
+    """Reads a model file."""
+
+def union(a: Model, b: Model, blend: float = 0.0) -> Model:
+    """Inside either model, sharp or with a fillet of about ``blend`` mesh units."""
+
+def intersection(a: Model, b: Model, blend: float = 0.0) -> Model:
+    """Inside both models."""
+
+def difference(a: Model, b: Model, blend: float = 0.0) -> Model:
+    """Inside ``a`` and outside ``b``."""

@@ -1,0 +1,133 @@
+"""Batch conversion on Dask distributed: ``python -m implicitize.batch INPUTS... -o OUT_DIR``.
+
+The same conversion, files and ``manifest.jsonl`` as ``implicitize batch`` (one line per mesh,
+in input order), with each mesh a Dask task. Without ``--scheduler`` a ``LocalCluster`` of
+``--workers`` processes runs on this machine; with ``--scheduler tcp://HOST:PORT`` the tasks go
+to an existing cluster (``dask scheduler`` and ``dask worker`` processes; every worker needs
+this package installed and the inputs and OUT_DIR at the same paths).
+
+A worker that dies mid-batch loses no mesh: the scheduler runs its tasks again on another
+worker. A task that keeps killing its workers (Dask's ``allowed-failures``) is listed as
+failed. Every input appears in the manifest exactly once, and a rerun skips meshes whose
+outputs are complete. Exit status 1 when any mesh failed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import Any, Dict, List, Optional, Sequence
+
+from . import _implicitize
+
+
+def convert(input: str, name: str, out_dir: str, options: Dict[str, Any]) -> str:
+    """Converts one mesh (on a worker); its manifest line, JSON. Never raises for a bad mesh."""
+    return _implicitize.batch_convert(input, name, out_dir, **options)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m implicitize.batch",
+        description="Fit many meshes on Dask distributed into one folder, with a manifest.",
+    )
+    parser.add_argument("inputs", nargs="+", help="mesh files, folders, @LIST files")
+    parser.add_argument("-o", "--output", required=True, help="the output folder")
+    parser.add_argument("--scheduler", help="a Dask scheduler's address (default: a LocalCluster)")
+    parser.add_argument("--workers", type=int, help="LocalCluster worker processes (default: CPUs)")
+    parser.add_argument("--sdf", action="store_true", help="also write signed distance volumes")
+    parser.add_argument("--quiet", "-q", action="store_true", help="print no progress")
+    grid = parser.add_mutually_exclusive_group()
+    grid.add_argument("--resolution", type=int, default=None)
+    grid.add_argument("--dims", type=int, nargs=3, default=None)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--target-error", type=float, default=2.0)
+    parser.add_argument("--max-constraints", type=int, default=None)
+    parser.add_argument("--max-iterations", type=int, default=None)
+    parser.add_argument("--method", choices=["iterative", "naive"], default="iterative")
+    parser.add_argument("--subvoxel", action="store_true")
+    parser.add_argument("--full-resolution", action="store_true")
+    return parser
+
+
+def _options(args: argparse.Namespace) -> Dict[str, Any]:
+    return {
+        "resolution": args.resolution,
+        "dims": args.dims,
+        "target_error": args.target_error,
+        "seed": args.seed,
+        "max_constraints": args.max_constraints,
+        "method": args.method,
+        "max_iterations": args.max_iterations,
+        "subvoxel": args.subvoxel,
+        "full_resolution": args.full_resolution,
+        "sdf": args.sdf,
+    }
+
+
+def _client(scheduler: Optional[str], workers: Optional[int]) -> Any:
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        return Client(scheduler)
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None)
+    return Client(cluster)
+
+
+def run(
+    inputs: Sequence[str],
+    out_dir: str,
+    options: Dict[str, Any],
+    client: Any,
+    quiet: bool = False,
+) -> List[str]:
+    """Converts every mesh on ``client``'s cluster and writes the manifest; its lines."""
+    from dask.distributed import as_completed
+
+    jobs = _implicitize.batch_plan(list(inputs))
+    if not jobs:
+        raise ValueError(f"no mesh files in {' '.join(inputs)}")
+    os.makedirs(out_dir, exist_ok=True)
+    futures = {
+        client.submit(convert, input, name, out_dir, options, key=f"implicitize-{i}-{name}"): i
+        for i, (input, name) in enumerate(jobs)
+    }
+    lines: List[Optional[str]] = [None] * len(jobs)
+    for future in as_completed(futures):
+        i = futures[future]
+        try:
+            lines[i] = future.result()
+        except Exception as error:  # the task's workers kept dying: the mesh failed
+            lines[i] = _implicitize.batch_failed(*jobs[i], f"{jobs[i][0]}: {error}")
+        if not quiet:
+            print(lines[i], file=sys.stderr)
+    done = [line for line in lines if line is not None]
+    _implicitize.batch_manifest(out_dir, done)
+    return done
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """The command line; the exit status."""
+    args = _parser().parse_args(argv)
+    options = _options(args)
+    try:
+        _implicitize.batch_plan([])  # the extension loads before a cluster starts
+        with _client(args.scheduler, args.workers) as client:
+            lines = run(args.inputs, args.output, options, client, args.quiet)
+    except (OSError, ValueError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 1
+    failed = sum('"status":"failed"' in line for line in lines)
+    manifest = os.path.join(args.output, "manifest.jsonl")
+    if not args.quiet:
+        print(f"{len(lines) - failed} of {len(lines)} meshes converted; wrote {manifest}", file=sys.stderr)
+    if failed:
+        print(f"error: {failed} of {len(lines)} meshes failed; see {manifest}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

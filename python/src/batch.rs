@@ -1,0 +1,115 @@
+//! The batch conversion's steps for Python's schedulers (`python -m implicitize.batch` on Dask):
+//! the inputs expanded and named, one mesh converted (on a worker), the manifest written; the
+//! same files and manifest lines as `implicitize batch` (the library's `batch` module).
+
+use std::path::{Path, PathBuf};
+
+use implicitize::batch::{self, BatchOptions, Entry, Job};
+use pyo3::prelude::*;
+
+use crate::errors::{invalid, to_py};
+use crate::inputs::{self, FitArgs};
+
+/// The mesh files `inputs` name (files, folders, `@LIST` files), each with the name of its
+/// outputs: `[(input, name), ...]` in order.
+#[pyfunction]
+pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
+    let files = batch::collect_inputs(&inputs).map_err(to_py)?;
+    let jobs = batch::plan(&files);
+    Ok(jobs.into_iter().map(|j| (j.input.display().to_string(), j.name)).collect())
+}
+
+/// The batch's options from the fit's keyword arguments and `sdf`, checked.
+#[allow(clippy::too_many_arguments)]
+fn options(
+    resolution: Option<i64>,
+    dims: Option<Vec<i64>>,
+    target_error: f64,
+    seed: u64,
+    max_constraints: Option<i64>,
+    method: String,
+    max_iterations: Option<i64>,
+    subvoxel: bool,
+    full_resolution: bool,
+    sdf: bool,
+) -> PyResult<BatchOptions> {
+    let args = FitArgs {
+        resolution: inputs::resolution(resolution, dims)?,
+        target_error,
+        seed,
+        max_constraints,
+        method,
+        max_iterations: max_iterations
+            .unwrap_or(implicitize::fit::FitOptions::default().max_iterations as i64),
+        subvoxel,
+        full_resolution,
+    };
+    Ok(BatchOptions { fit: args.options()?, sdf })
+}
+
+/// Converts one mesh into `out_dir` (or takes its complete outputs from an earlier run) and
+/// returns its manifest line (JSON). Never raises for a bad mesh: its line says `failed`.
+/// The options are `fit`'s; a bad option raises `ValueError`. The GIL is released meanwhile.
+#[pyfunction]
+#[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=2.0, seed=1,
+                    max_constraints=None, method="iterative".to_string(), max_iterations=None,
+                    subvoxel=false, full_resolution=false, sdf=false))]
+#[allow(clippy::too_many_arguments)]
+pub fn batch_convert(
+    py: Python<'_>,
+    input: PathBuf,
+    name: String,
+    out_dir: PathBuf,
+    resolution: Option<i64>,
+    dims: Option<Vec<i64>>,
+    target_error: f64,
+    seed: u64,
+    max_constraints: Option<i64>,
+    method: String,
+    max_iterations: Option<i64>,
+    subvoxel: bool,
+    full_resolution: bool,
+    sdf: bool,
+) -> PyResult<String> {
+    let options = options(
+        resolution,
+        dims,
+        target_error,
+        seed,
+        max_constraints,
+        method,
+        max_iterations,
+        subvoxel,
+        full_resolution,
+        sdf,
+    )?;
+    let job = Job { input, name };
+    let entry = py.detach(|| {
+        std::fs::create_dir_all(&out_dir)
+            .map(|()| batch::convert(&job, &out_dir, &options))
+            .unwrap_or_else(|e| {
+                batch::failed_entry(&job, format!("{}: {e}", out_dir.display()), 0.0)
+            })
+    });
+    line(&entry)
+}
+
+/// The manifest line of a mesh whose conversion never finished (its workers kept dying).
+#[pyfunction]
+pub fn batch_failed(input: PathBuf, name: String, error: String) -> PyResult<String> {
+    line(&batch::failed_entry(&Job { input, name }, error, 0.0))
+}
+
+/// Writes `out_dir/manifest.jsonl` from the lines, in order (atomically).
+#[pyfunction]
+pub fn batch_manifest(out_dir: PathBuf, lines: Vec<String>) -> PyResult<()> {
+    let entries = lines
+        .iter()
+        .map(|l| serde_json::from_str::<Entry>(l).map_err(|e| invalid(format!("{l}: {e}"))))
+        .collect::<PyResult<Vec<_>>>()?;
+    batch::write_manifest(Path::new(&out_dir), &entries).map_err(to_py)
+}
+
+fn line(entry: &Entry) -> PyResult<String> {
+    serde_json::to_string(entry).map_err(|e| invalid(format!("a manifest line: {e}")))
+}

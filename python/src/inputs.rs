@@ -1,0 +1,219 @@
+//! The inputs Python hands over, checked and turned into the library's types: meshes (a path,
+//! or vertex and face arrays), grid resolutions, points, fit options.
+
+use std::path::PathBuf;
+
+use implicitize::fit::{ErrorMeasure, FitOptions};
+use implicitize::pipeline::{self, MeshFitOptions};
+use implicitize::{DVec3, Mesh, Resolution, mesh};
+use numpy::{PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::errors::{invalid, to_py};
+
+/// A mesh as the Python package passes it: a file's path, or `(vertices, faces)` arrays
+/// (float64 N x 3 and int64 M x 3, which the package makes from any array-like).
+#[derive(FromPyObject)]
+pub enum MeshArg<'py> {
+    /// A mesh file (OBJ, PLY, STL or OFF).
+    Path(PathBuf),
+    /// Vertices and faces.
+    Arrays(PyReadonlyArray2<'py, f64>, PyReadonlyArray2<'py, i64>),
+}
+
+/// A mesh ready for the library: read from its file on the worker side of the GIL, or
+/// already copied out of its arrays.
+pub enum MeshSource {
+    /// A file still to be read.
+    File(PathBuf),
+    /// A mesh from arrays.
+    Memory(Mesh),
+}
+
+/// The name of meshes given as arrays, in errors.
+pub const ARRAYS: &str = "the mesh";
+
+impl MeshArg<'_> {
+    /// Checks the arrays and copies them into a mesh; a path is kept to be read later.
+    pub fn into_source(self) -> PyResult<MeshSource> {
+        match self {
+            MeshArg::Path(path) => Ok(MeshSource::File(path)),
+            MeshArg::Arrays(vertices, faces) => Ok(MeshSource::Memory(mesh_of(&vertices, &faces)?)),
+        }
+    }
+}
+
+impl MeshSource {
+    /// The mesh, the name of its source for errors, and its file's size.
+    pub fn read(self) -> implicitize::Result<(Mesh, String, Option<u64>)> {
+        match self {
+            MeshSource::File(path) => {
+                let (mesh, _) = mesh::read(&path)?;
+                let bytes = std::fs::metadata(&path).ok().map(|m| m.len());
+                Ok((mesh, path.display().to_string(), bytes))
+            }
+            MeshSource::Memory(mesh) => Ok((mesh, ARRAYS.to_string(), None)),
+        }
+    }
+}
+
+/// Checks that `array` is N x `columns`, naming it `what` in the error.
+fn check_columns(what: &str, shape: &[usize], columns: usize) -> PyResult<()> {
+    if shape.len() != 2 || shape[1] != columns {
+        return Err(invalid(format!(
+            "{what}: expected an (N, {columns}) array, got shape {shape:?}"
+        )));
+    }
+    Ok(())
+}
+
+/// A mesh from vertex and face arrays: finite vertices, faces indexing them.
+fn mesh_of(vertices: &PyReadonlyArray2<f64>, faces: &PyReadonlyArray2<i64>) -> PyResult<Mesh> {
+    check_columns("vertices", vertices.shape(), 3)?;
+    check_columns("faces", faces.shape(), 3)?;
+    let n = vertices.shape()[0];
+    if n > u32::MAX as usize {
+        return Err(invalid(format!("vertices: more than {} vertices", u32::MAX)));
+    }
+    let vertices: Vec<DVec3> =
+        vertices.as_array().rows().into_iter().map(|r| DVec3::new(r[0], r[1], r[2])).collect();
+    if let Some(v) = vertices.iter().position(|p| !p.is_finite()) {
+        return Err(invalid(format!("vertices: vertex {v} has a coordinate that is not finite")));
+    }
+    let faces = faces.as_array();
+    let mut triangles = Vec::with_capacity(faces.nrows());
+    for (t, row) in faces.rows().into_iter().enumerate() {
+        let corner = |c: i64| u32::try_from(c).ok().filter(|&c| (c as usize) < n);
+        match (corner(row[0]), corner(row[1]), corner(row[2])) {
+            (Some(a), Some(b), Some(c)) => triangles.push([a, b, c]),
+            _ => {
+                return Err(invalid(format!(
+                    "faces: face {t} ({}, {}, {}) refers to a vertex outside 0..{n}",
+                    row[0], row[1], row[2]
+                )));
+            }
+        }
+    }
+    if triangles.is_empty() {
+        return Err(invalid(format!("{ARRAYS}: the mesh has no triangles")));
+    }
+    Ok(Mesh { vertices, triangles })
+}
+
+/// The grid resolution: `resolution` voxels along the longest axis, or exact `dims`.
+pub fn resolution(resolution: Option<i64>, dims: Option<Vec<i64>>) -> PyResult<Resolution> {
+    let positive = |what: &str, n: i64| {
+        usize::try_from(n)
+            .ok()
+            .filter(|&n| n > 0)
+            .ok_or_else(|| invalid(format!("{what} must be a positive number of voxels, not {n}")))
+    };
+    match (resolution, dims) {
+        (Some(_), Some(_)) => Err(invalid("give resolution= or dims=, not both")),
+        (None, Some(dims)) => match dims.as_slice() {
+            &[x, y, z] => Ok(Resolution::Dims([
+                positive("dims", x)?,
+                positive("dims", y)?,
+                positive("dims", z)?,
+            ])),
+            _ => Err(invalid(format!("dims: expected 3 sizes (nx, ny, nz), got {}", dims.len()))),
+        },
+        (r, None) => Ok(Resolution::LongestAxis(positive("resolution", r.unwrap_or(200))?)),
+    }
+}
+
+/// `points` as an N x `dim` float64 array, copied row by row into one flat vector; every
+/// coordinate must be finite.
+pub fn points(points: &Bound<'_, PyAny>, dim: usize) -> PyResult<(Vec<f64>, usize)> {
+    let py = points.py();
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("dtype", "float64")?;
+    let array = py.import("numpy")?.call_method("asarray", (points,), Some(&kwargs))?;
+    let array = array
+        .cast_into::<numpy::PyArray2<f64>>()
+        .map_err(|_| invalid(format!("points: expected an (N, {dim}) array of numbers")))?;
+    let array = array.readonly();
+    check_columns("points", array.shape(), dim)?;
+    let flat: Vec<f64> = array.as_array().iter().copied().collect();
+    if let Some(i) = flat.iter().position(|x| !x.is_finite()) {
+        return Err(invalid(format!(
+            "points: point {} has a coordinate that is not finite",
+            i / dim
+        )));
+    }
+    Ok((flat, array.shape()[0]))
+}
+
+/// The options of a fit, as `implicitize fit` takes them.
+pub struct FitArgs {
+    /// The grid.
+    pub resolution: Resolution,
+    /// Stop once E is at most this (voxels).
+    pub target_error: f64,
+    /// The seed of the random choices.
+    pub seed: u64,
+    /// Never more constraints than this (the method's default when `None`).
+    pub max_constraints: Option<i64>,
+    /// "iterative" or "naive".
+    pub method: String,
+    /// Stop after this many iterations.
+    pub max_iterations: i64,
+    /// Measure E from points on the surfaces.
+    pub subvoxel: bool,
+    /// No start at half the resolution.
+    pub full_resolution: bool,
+}
+
+impl FitArgs {
+    /// The library's options, checked: what `implicitize fit` makes of the same flags.
+    pub fn options(&self) -> PyResult<MeshFitOptions> {
+        if !(self.target_error.is_finite() && self.target_error >= 0.0) {
+            return Err(invalid(format!(
+                "target_error must be a finite number of voxels >= 0, not {}",
+                self.target_error
+            )));
+        }
+        let count = |what: &str, n: i64| {
+            usize::try_from(n)
+                .ok()
+                .filter(|&n| n > 0)
+                .ok_or_else(|| invalid(format!("{what} must be a positive count, not {n}")))
+        };
+        let method = match self.method.as_str() {
+            "iterative" => pipeline::Method::Iterative,
+            "naive" => pipeline::Method::Naive,
+            other => {
+                return Err(invalid(format!(
+                    "method must be 'iterative' or 'naive', not {other:?}"
+                )));
+            }
+        };
+        let default_constraints = match method {
+            pipeline::Method::Iterative => FitOptions::default().max_constraints,
+            pipeline::Method::Naive => implicitize::fit::naive::DEFAULT_CONSTRAINTS,
+        };
+        let fit = FitOptions {
+            seed: self.seed,
+            max_iterations: count("max_iterations", self.max_iterations)?,
+            target_error: self.target_error as f32,
+            error_measure: if self.subvoxel { ErrorMeasure::SubVoxel } else { ErrorMeasure::Voxel },
+            max_constraints: match self.max_constraints {
+                Some(n) => count("max_constraints", n)?,
+                None => default_constraints,
+            },
+            coarse_start_min_axis: if self.full_resolution {
+                usize::MAX
+            } else {
+                FitOptions::default().coarse_start_min_axis
+            },
+            ..FitOptions::default()
+        };
+        Ok(MeshFitOptions { resolution: self.resolution, method, fit, ..Default::default() })
+    }
+}
+
+/// Reads or takes the mesh, naming its source in errors.
+pub fn read(source: MeshSource) -> PyResult<(Mesh, String, Option<u64>)> {
+    source.read().map_err(to_py)
+}

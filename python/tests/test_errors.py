@@ -1,0 +1,87 @@
+"""Errors: ValueError or OSError with the command-line tool's messages, and every input checked
+before it reaches the library."""
+
+import numpy as np
+import pytest
+
+import implicitize
+
+
+def cli_message(run, *args):
+    done = run(*args, check=False)
+    assert done.returncode == 1
+    assert done.stderr.startswith("error: ")
+    return done.stderr[len("error: ") :].strip()
+
+
+def test_missing_mesh_is_an_oserror_with_the_cli_message(tmp_path, run):
+    missing = tmp_path / "missing.obj"
+    with pytest.raises(OSError) as raised:
+        implicitize.fit(missing, resolution=40)
+    assert str(raised.value) == cli_message(run, "fit", missing, "-o", tmp_path / "m.json")
+
+
+def test_broken_mesh_is_a_valueerror_with_the_cli_message(tmp_path, run):
+    broken = tmp_path / "broken.obj"
+    broken.write_text("v 0 0 0\nv 1 0 0\nf 1 2 7\n")
+    with pytest.raises(ValueError) as raised:
+        implicitize.signed_distance(broken, resolution=40)
+    assert str(raised.value) == cli_message(run, "sdf", broken, "-o", tmp_path / "s.npy")
+    assert "broken.obj" in str(raised.value)
+
+
+def test_not_a_model_file_has_the_cli_message(tmp_path, run, triceratops):
+    points = tmp_path / "p.npy"
+    np.save(points, np.zeros((1, 3)))
+    with pytest.raises(ValueError) as raised:
+        implicitize.load(triceratops)
+    message = cli_message(run, "eval", triceratops, "--points", points, "-o", tmp_path / "v.npy")
+    assert str(raised.value) == message
+
+
+@pytest.mark.parametrize(
+    "mesh, message",
+    [
+        ((np.zeros((3, 2)), np.array([[0, 1, 2]])), "vertices: expected an (N, 3) array"),
+        ((np.eye(3), np.array([[0, 1, 3]])), "refers to a vertex outside 0..3"),
+        ((np.eye(3), np.array([[0, -1, 2]])), "refers to a vertex outside 0..3"),
+        ((np.array([[0, 0, np.nan], [1, 0, 0], [0, 1, 0]]), [[0, 1, 2]]), "not finite"),
+        ((np.eye(3), np.zeros((0, 3), int)), "the mesh has no triangles"),
+        ((np.eye(3), np.array([[0.0, 1.0, 2.0]])), "faces: expected integer"),
+    ],
+)
+def test_bad_arrays_are_valueerrors(mesh, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        implicitize.voxelize(mesh, resolution=20)
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"resolution": 0}, "resolution must be a positive number of voxels, not 0"),
+        ({"target_error": float("nan")}, "target_error must be a finite number"),
+        ({"method": "magic"}, "method must be 'iterative' or 'naive'"),
+        ({"max_constraints": -5}, "max_constraints must be a positive count, not -5"),
+        ({"dims": [10, 10]}, "dims: expected 3 sizes"),
+    ],
+)
+def test_bad_options_are_valueerrors(triceratops, kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        implicitize.fit(triceratops, **kwargs)
+
+
+def test_bad_points_and_pictures_are_valueerrors(triceratops):
+    model = implicitize.fit(triceratops, resolution=32)
+    with pytest.raises(ValueError, match=r"points: expected an \(N, 3\) array"):
+        model(np.zeros((4, 2)))
+    with pytest.raises(ValueError, match="point 1 has a coordinate that is not finite"):
+        model.gradient([[0, 0, 0], [0, np.inf, 0]])
+    with pytest.raises(ValueError, match="each side must be 1 to"):
+        model.render(size=(0, 10))
+    with pytest.raises(ValueError, match="the blend radius -1 is not a finite number"):
+        implicitize.union(model, model, blend=-1)
+
+
+def test_not_a_mesh_is_a_typeerror():
+    with pytest.raises(TypeError, match="mesh: expected a path"):
+        implicitize.fit(42)

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# The test command (README "Two commands", called by .ci/run): the Rust tests of every crate of
+# the workspace, then the Python package built once and its tests.
+#
+# 1. `cargo test --release --workspace --locked` (library, command, doctests; it also builds
+#    target/release/implicitize, whose outputs the Python tests compare against).
+# 2. A virtual environment in target/venv (ignored by git, kept between runs) with the packages
+#    of python/requirements-test.txt from PyPI.
+# 3. The package built by maturin in release, into the same target directory as cargo (so the
+#    library is compiled once), and installed into the environment.
+# 4. pytest over python/tests.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+
+cargo test --release --workspace --locked
+
+venv=$root/target/venv
+if [ ! -x "$venv/bin/python" ]; then
+    python3 -m venv "$venv"
+fi
+"$venv/bin/python" -m pip install --quiet --upgrade pip
+"$venv/bin/python" -m pip install --quiet -r python/requirements-test.txt
+
+# maturin from the environment (the build backend), cargo's target directory, no rebuild of
+# what `cargo test` compiled unless the extension's flags differ.
+PATH="$venv/bin:$PATH" CARGO_TARGET_DIR="$root/target" \
+    "$venv/bin/python" -m pip install --quiet --no-build-isolation --no-deps --force-reinstall ./python
+
+IMPLICITIZE_BIN="$root/target/release/implicitize" "$venv/bin/python" -m pytest python/tests -q -p no:cacheprovider
