@@ -82,6 +82,7 @@
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
 //! | combine models: union, intersection, difference | [`csg`] | 1 |
 //! | morph one model into another | [`morph`] | 1, 7 |
+//! | write output files atomically | [`output`] | |
 #![deny(missing_docs)]
 
 pub mod csg;
@@ -99,6 +100,7 @@ pub mod metrics;
 pub mod model;
 pub mod morph;
 pub mod npy;
+pub mod output;
 pub mod pipeline;
 pub mod polygonize;
 pub mod rbf;

@@ -135,7 +135,7 @@ impl Model {
         self.report = Some(report);
     }
 
-    /// Writes the model as JSON to `path`.
+    /// Writes the model as JSON to `path`, atomically ([`crate::output`]).
     pub fn save(&self, path: &Path) -> Result<()> {
         let file = ModelFile {
             format: FORMAT.into(),
@@ -148,7 +148,7 @@ impl Model {
         };
         let json = serde_json::to_string_pretty(&file)
             .expect("finite numbers and string keys always serialize");
-        std::fs::write(path, json + "\n").map_err(|e| Error::io(path, e))
+        crate::output::write_bytes(path, (json + "\n").as_bytes())
     }
 
     /// Reads a model from `path`. A file that is not JSON, not a model, of another version, or

@@ -1,28 +1,24 @@
 //! NumPy `.npy` files: volumes and point sets that users load with `numpy.load`.
 
-use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use npyz::WriterBuilder;
 
 use crate::error::{Error, Result};
 
-/// Writes `data` as a C-order NumPy array of the given shape.
+/// Writes `data` as a C-order NumPy array of the given shape, atomically ([`crate::output`]).
 pub fn write<T: npyz::AutoSerialize>(path: &Path, shape: &[u64], data: &[T]) -> Result<()> {
     let io = |e: std::io::Error| Error::io(path, e);
-    let file = std::fs::File::create(path).map_err(io)?;
-    let mut out = BufWriter::new(file);
-    {
+    crate::output::write_with(path, |out| {
         let mut writer = npyz::WriteOptions::new()
             .default_dtype()
             .shape(shape)
-            .writer(&mut out)
+            .writer(out)
             .begin_nd()
             .map_err(io)?;
         writer.extend(data.iter()).map_err(io)?;
-        writer.finish().map_err(io)?;
-    }
-    out.flush().map_err(io)
+        writer.finish().map_err(io)
+    })
 }
 
 /// Reads a 2D array of float32 or float64 values (N rows of `columns` values) as f64 rows.

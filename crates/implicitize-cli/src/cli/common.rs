@@ -4,7 +4,7 @@ use std::io::IsTerminal;
 use std::path::Path;
 
 use clap::Args;
-use implicitize::{Grid, Mesh, Resolution, mesh, pipeline};
+use implicitize::{Grid, Mesh, Resolution, mesh, output, pipeline};
 
 /// The size of the voxel grid placed around the mesh.
 #[derive(Debug, Args)]
@@ -58,6 +58,24 @@ impl Progress {
             eprintln!("{}...", message.as_ref());
         }
     }
+}
+
+/// Checks, before any work, that every file in `files` can be written (its folder exists and
+/// takes files) and that every mesh in `meshes` also has a mesh file's extension.
+pub fn check_outputs(files: &[&Path], meshes: &[&Path]) -> anyhow::Result<()> {
+    for path in meshes {
+        mesh::Format::from_path(path)?;
+    }
+    for path in files.iter().chain(meshes) {
+        output::check_destination(path)?;
+    }
+    Ok(())
+}
+
+/// Writes a fit report as pretty JSON, atomically.
+pub fn write_report(path: &Path, report: &implicitize::fit::FitReport) -> anyhow::Result<()> {
+    let json = serde_json::to_string_pretty(report)?;
+    Ok(output::write_bytes(path, (json + "\n").as_bytes())?)
 }
 
 /// Reads a mesh and reports what was repaired.

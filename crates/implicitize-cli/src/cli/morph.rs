@@ -7,7 +7,7 @@ use clap::{Args, ValueEnum};
 use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions};
 use implicitize::render::{self, Camera, Coloring, Image, March};
-use implicitize::{Grid, Resolution, mesh, polygonize};
+use implicitize::{Grid, Resolution, mesh, output, polygonize};
 
 use super::common::Progress;
 
@@ -58,6 +58,7 @@ const VIEW: (f64, f64) = (30.0, 20.0);
 /// Builds the morph, polygonizes every frame and draws the strip.
 pub fn run(args: &MorphArgs, progress: Progress) -> anyhow::Result<()> {
     let times = morph::frame_times(args.steps)?;
+    output::prepare_folder(&args.output)?;
     let a = Model::load(&args.a)?;
     let b = Model::load(&args.b)?;
     let method = match args.method {
@@ -75,8 +76,6 @@ pub fn run(args: &MorphArgs, progress: Progress) -> anyhow::Result<()> {
         .with_context(|| format!("morphing {} into {}", args.a.display(), args.b.display()))?;
     let bounds = morph.bounds();
     let grid = Grid::around(&bounds, Resolution::LongestAxis(args.resolution))?;
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("cannot create the folder {}", args.output.display()))?;
     let camera = (args.strip_width > 0)
         .then(|| {
             Camera::framing(&bounds, VIEW.0, VIEW.1, args.strip_width, args.strip_width * 3 / 4)

@@ -6,7 +6,7 @@ use clap::Args;
 use implicitize::model::Model;
 use implicitize::{Grid, Resolution, mesh, polygonize};
 
-use super::common::Progress;
+use super::common::{Progress, check_outputs};
 
 /// Arguments of `implicitize mesh`.
 #[derive(Debug, Args)]
@@ -27,6 +27,7 @@ pub struct MeshCommand {
 
 /// Polygonizes the model over its bounds and writes the mesh.
 pub fn run(args: &MeshCommand, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[], &[&args.output])?;
     let model = Model::load(&args.model)?;
     let grid = Grid::around(&model.bounds(), Resolution::LongestAxis(args.resolution))?;
     progress

@@ -19,7 +19,7 @@ use implicitize::render::{Camera, Coloring, Image, March, Shading, render_field,
 use implicitize::voxelize::VoxelizeOptions;
 use implicitize::{Aabb, DVec3, Field, Grid, Mesh, pipeline};
 
-use super::common::{GridArgs, Progress, read_mesh};
+use super::common::{GridArgs, Progress, check_outputs, read_mesh};
 
 /// The default view: a three-quarter view from the front right and a little above.
 const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
@@ -133,6 +133,7 @@ fn union(a: &Aabb, b: &Aabb) -> Aabb {
 
 /// Runs `implicitize render`.
 pub fn run(args: &RenderCommand, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[&args.output], &[])?;
     let (width, height) = size(&args.size)?;
     let [azimuth, elevation] = view(&args.view)?;
     let shape = Shape::read(&args.input, progress)?;
@@ -297,13 +298,11 @@ pub struct Snapshots<'a> {
 }
 
 impl<'a> Snapshots<'a> {
-    /// Snapshots into `dir` (created if need be) of surfaces fitted on `grid`, framed on
-    /// `bounds` (the mesh's) and marched through the grid's box.
-    pub fn new(dir: &'a Path, bounds: Aabb, grid: &Grid) -> anyhow::Result<Snapshots<'a>> {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("{}: cannot create the folder", dir.display()))?;
+    /// Snapshots into `dir` (made beforehand by `output::prepare_folder`) of surfaces fitted on
+    /// `grid`, framed on `bounds` (the mesh's) and marched through the grid's box.
+    pub fn new(dir: &'a Path, bounds: Aabb, grid: &Grid) -> Snapshots<'a> {
         let march = grid_box(grid);
-        Ok(Snapshots { dir, frame: bounds, march, pictures: Vec::new(), error: None })
+        Snapshots { dir, frame: bounds, march, pictures: Vec::new(), error: None }
     }
 
     /// Draws iteration `iteration`'s surface and writes its picture.

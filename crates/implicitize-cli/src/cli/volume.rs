@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 use implicitize::{pipeline, voxelize};
 
-use super::common::{GridArgs, Progress, read_mesh};
+use super::common::{GridArgs, Progress, check_outputs, read_mesh};
 
 /// Arguments of `voxelize` and `sdf`.
 #[derive(Debug, Args)]
@@ -31,6 +31,7 @@ pub enum VolumeKind {
 
 /// Voxelizes the mesh and writes the densities or the signed distance.
 pub fn run(args: &VolumeArgs, kind: VolumeKind, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[&args.output, &args.output.with_extension("json")], &[])?;
     let mesh = read_mesh(&args.mesh, progress)?;
     let grid = args.grid.grid_around(&mesh, &args.mesh)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
