@@ -83,6 +83,7 @@
 //! | combine models: union, intersection, difference | [`csg`] | 1 |
 //! | morph one model into another | [`morph`] | 1, 7 |
 //! | write output files atomically | [`output`] | |
+//! | estimate memory before allocating grids | [`memory`] | |
 #![deny(missing_docs)]
 
 pub mod csg;
@@ -95,6 +96,7 @@ pub mod fit;
 pub mod geometry;
 pub mod goal2d;
 pub mod grid;
+pub mod memory;
 pub mod mesh;
 pub mod metrics;
 pub mod model;

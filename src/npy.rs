@@ -46,6 +46,18 @@ pub fn read_rows(path: &Path) -> Result<(Vec<f64>, usize)> {
     }
     let bad = |e: std::io::Error| Error::parse(path, None, format!("damaged array data: {e}"));
     let dtype = npy.dtype();
+    let needed =
+        shape.iter().fold(dtype.num_bytes().unwrap_or(1) as u64, |n, &d| n.saturating_mul(d));
+    if needed > bytes.len() as u64 {
+        return Err(Error::parse(
+            path,
+            None,
+            format!(
+                "the header's shape {shape:?} needs {needed} bytes; the file has {}",
+                bytes.len()
+            ),
+        ));
+    }
     let values: Vec<f64> = match dtype.descr().trim_matches('\'') {
         "<f8" => npy.into_vec::<f64>().map_err(bad)?,
         "<f4" => npy.into_vec::<f32>().map_err(bad)?.into_iter().map(f64::from).collect(),

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use implicitize::fit::{self, ErrorMeasure, FitOptions};
+use implicitize::memory::Estimate;
 use implicitize::pipeline::{self, MeshFitOptions, Prepared};
 use implicitize::{Mesh, mesh, output, polygonize};
 
@@ -204,7 +205,7 @@ fn fit_and_write(
     progress: Progress,
 ) -> anyhow::Result<()> {
     let options = args.options();
-    let grid = args.grid.grid_around(mesh, source)?;
+    let grid = args.grid.checked_grid(mesh, source, Estimate::fit)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let prepared = Prepared::new(mesh, &source.display().to_string(), &options)?;
     let mut snapshots =

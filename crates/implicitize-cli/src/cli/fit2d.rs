@@ -8,10 +8,11 @@ use clap::Args;
 use implicitize::figure2::{self, Snapshots};
 use implicitize::fit::{self, Goal};
 use implicitize::goal2d::{self, ImageOptions};
+use implicitize::memory::Estimate;
 use implicitize::model::Model;
 use implicitize::rbf::Implicit;
 
-use super::common::{Progress, check_outputs, write_report};
+use super::common::{Progress, check_memory, check_outputs, write_report};
 use super::fit::LoopArgs;
 
 /// Arguments of `implicitize fit2d`.
@@ -60,6 +61,8 @@ pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
         ImageOptions { threshold: args.threshold, blur: args.blur, invert: args.invert };
     let (density, bounds) = goal2d::read_density(&args.image, &image_options)?;
     let grid = density.grid;
+    check_memory(&Estimate::fit(grid.dims, 0), |_| None)
+        .with_context(|| args.image.display().to_string())?;
     let figure_scale = args.figure_scale.unwrap_or_else(|| default_scale(grid.dims));
     if args.figure.is_some() {
         figure2::check(&grid, figure_scale).context("--figure-scale")?;

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use implicitize::memory::Estimate;
 use implicitize::{pipeline, voxelize};
 
 use super::common::{GridArgs, Progress, check_outputs, read_mesh};
@@ -33,7 +34,7 @@ pub enum VolumeKind {
 pub fn run(args: &VolumeArgs, kind: VolumeKind, progress: Progress) -> anyhow::Result<()> {
     check_outputs(&[&args.output, &args.output.with_extension("json")], &[])?;
     let mesh = read_mesh(&args.mesh, progress)?;
-    let grid = args.grid.grid_around(&mesh, &args.mesh)?;
+    let grid = args.grid.checked_grid(&mesh, &args.mesh, Estimate::volume)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let options = voxelize::VoxelizeOptions::default();
     let volume = match kind {
