@@ -20,6 +20,7 @@
 use std::path::Path;
 use std::time::Instant;
 
+use crate::distance;
 use crate::error::{Error, Result};
 use crate::fit::{self, FitOptions, FitReport, Goal, IterationReport};
 use crate::geometry::Aabb;
@@ -28,7 +29,7 @@ use crate::mesh::{self, Mesh};
 use crate::metrics::RegularityOptions;
 use crate::model::Model;
 use crate::rbf::{Implicit, Isa};
-use crate::{distance, voxelize};
+use crate::voxelize::{self, Ambiguity};
 
 /// How the constraints of a fit are made.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -82,6 +83,7 @@ pub struct Prepared<'a> {
     mesh: &'a Mesh,
     bounds: Aabb,
     goal: Goal,
+    ambiguity: Ambiguity,
     options: MeshFitOptions,
     goal_seconds: f64,
 }
@@ -145,11 +147,25 @@ pub fn signed_distance_of_mesh(
     options: &voxelize::VoxelizeOptions,
     source: &str,
 ) -> Result<Volume<f32>> {
+    signed_distance_reporting(mesh, resolution, options, source).map(|(volume, _)| volume)
+}
+
+/// [`signed_distance_of_mesh`], and how much of the grid has no trustworthy inside.
+///
+/// # Errors
+/// As [`signed_distance_of_mesh`].
+pub fn signed_distance_reporting(
+    mesh: &Mesh,
+    resolution: Resolution,
+    options: &voxelize::VoxelizeOptions,
+    source: &str,
+) -> Result<(Volume<f32>, Ambiguity)> {
     let grid = grid_around(mesh, resolution, source)?;
-    let density = voxelize::voxelize(mesh, &grid, options).map_err(naming(source))?;
+    let (density, ambiguity) =
+        voxelize::voxelize_reporting(mesh, &grid, options).map_err(naming(source))?;
     let inside = distance::inside(&density);
     drop(density);
-    Ok(distance::signed_distance(&inside))
+    Ok((distance::signed_distance(&inside), ambiguity))
 }
 
 fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
@@ -177,15 +193,17 @@ impl<'a> Prepared<'a> {
         Isa::from_env()?;
         let bounds = mesh_bounds(mesh, source)?;
         let clock = Instant::now();
-        let goal = goal_of_mesh(
-            mesh,
-            options.resolution,
-            &options.voxelize,
-            &options.fit.regularity,
-            source,
-        )?;
+        let grid = grid_around(mesh, options.resolution, source)?;
+        let (density, ambiguity) =
+            voxelize::voxelize_reporting(mesh, &grid, &options.voxelize).map_err(naming(source))?;
+        let goal = Goal::from_density(density, &options.fit.regularity);
         let goal_seconds = clock.elapsed().as_secs_f64();
-        Ok(Prepared { mesh, bounds, goal, options: options.clone(), goal_seconds })
+        Ok(Prepared { mesh, bounds, goal, ambiguity, options: options.clone(), goal_seconds })
+    }
+
+    /// How much of the grid has a winding number near one half (no trustworthy inside).
+    pub fn ambiguity(&self) -> Ambiguity {
+        self.ambiguity
     }
 
     /// The grid the mesh was voxelized on.
@@ -217,6 +235,7 @@ impl<'a> Prepared<'a> {
         let mut report = fitted.report;
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
+        report.winding_near_half = Some(self.ambiguity.fraction());
         let model = Model::from_implicit(fitted.implicit, self.bounds, Some(*self.goal.grid()));
         Ok(Fitted { model, report })
     }

@@ -42,6 +42,14 @@
 //!   centre and neighbours all fall outside them are not supersampled and may be lost, as with
 //!   any sampling at the grid's resolution.
 //!
+//! # Where there is no trustworthy inside
+//! An open mesh has no inside of its own: the winding number caps its holes, and over a large
+//! opening (a car body without its floor, a sheet) it stays near one half over a large region,
+//! where the answer is a guess. [`voxelize_reporting`] measures how much of the grid that is
+//! ([`Ambiguity`]): the generalized winding number on a lattice of at most 16 voxels along
+//! each axis, and the fraction of those voxels where it lies within a quarter of one half.
+//! Closed meshes (however nested, duplicated, non-manifold or self-intersecting) have none.
+//!
 //! Work and memory: the rays cost time proportional to the mesh's projected area times `s^2`;
 //! the classification is parallel over slabs of the grid (rayon). Besides the densities
 //! (4 bytes a voxel), one byte a voxel holds the centres' states while voxelizing.
@@ -75,6 +83,39 @@ impl Default for VoxelizeOptions {
     }
 }
 
+/// How much of a grid has no trustworthy inside: voxels whose generalized winding number is
+/// near one half (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ambiguity {
+    /// Voxels sampled: a regular lattice of at most 16 along each axis of the grid.
+    pub sampled: usize,
+    /// Sampled voxels whose winding number `w` has `1/4 < |w| < 3/4`.
+    pub near_half: usize,
+}
+
+impl Ambiguity {
+    /// Above this fraction of the grid a warning is due ([`Ambiguity::warning`]).
+    pub const DOUBTFUL: f64 = 0.01;
+
+    /// The fraction of the grid's voxels whose winding number is near one half.
+    pub fn fraction(&self) -> f64 {
+        self.near_half as f64 / self.sampled.max(1) as f64
+    }
+
+    /// A warning (one line, no file name) when more than [`Ambiguity::DOUBTFUL`] of the grid
+    /// has a winding number near one half, or `None`.
+    pub fn warning(&self) -> Option<String> {
+        (self.fraction() > Self::DOUBTFUL).then(|| {
+            format!(
+                "the mesh is open: the winding number is near one half in {:.1}% of the grid's \
+                 voxels, where inside and outside are a guess (holes capped as a soap film \
+                 would); close the mesh for a trustworthy solid",
+                100.0 * self.fraction()
+            )
+        })
+    }
+}
+
 /// Voxelizes `mesh` on `grid`: densities in `[0, 1]`, 1 inside, 0 outside (see the module doc
 /// for the method and what it guarantees).
 ///
@@ -82,6 +123,18 @@ impl Default for VoxelizeOptions {
 /// not finite, the grid is empty or its voxel size is not positive, or the supersampling is
 /// not odd and in 1..=15.
 pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<Volume<f32>> {
+    voxelize_reporting(mesh, grid, options).map(|(volume, _)| volume)
+}
+
+/// [`voxelize`], and how much of the grid has a winding number near one half.
+///
+/// # Errors
+/// As [`voxelize`].
+pub fn voxelize_reporting(
+    mesh: &Mesh,
+    grid: &Grid,
+    options: &VoxelizeOptions,
+) -> Result<(Volume<f32>, Ambiguity)> {
     check(mesh, grid, options)?;
     let s = options.supersampling;
     let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
@@ -121,7 +174,27 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
             }
         }
     });
-    Ok(Volume { grid: *grid, data })
+    let ambiguity = ambiguity(&classifier.winding, grid);
+    Ok((Volume { grid: *grid, data }, ambiguity))
+}
+
+/// The winding number on a lattice of at most 16 voxels along each axis of `grid`.
+fn ambiguity(winding: &Winding, grid: &Grid) -> Ambiguity {
+    let stride = grid.dims.iter().max().map_or(1, |&n| n.div_ceil(16).max(1));
+    let axis = |n: usize| (stride / 2..n).step_by(stride);
+    let points: Vec<[usize; 3]> = axis(grid.dims[0])
+        .flat_map(|i| {
+            axis(grid.dims[1]).flat_map(move |j| axis(grid.dims[2]).map(move |k| [i, j, k]))
+        })
+        .collect();
+    let near_half = points
+        .par_iter()
+        .filter(|v| {
+            let w = winding.at(DVec3::from_array(v.map(|x| x as f64))).abs();
+            w > 0.25 && w < 0.75
+        })
+        .count();
+    Ambiguity { sampled: points.len(), near_half }
 }
 
 fn check(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<()> {

@@ -74,7 +74,10 @@ fn a_memory_limit_refuses_sdf_at_600_and_names_a_resolution_that_fits() {
     let args = |r: &str| {
         let out = out.to_str().unwrap();
         let args = ["sdf", mesh.to_str().unwrap(), "--resolution", r, "-o", out];
-        args.into_iter().chain(["--memory-limit", "1G", "--quiet"]).map(String::from).collect::<Vec<_>>()
+        args.into_iter()
+            .chain(["--memory-limit", "1G", "--quiet"])
+            .map(String::from)
+            .collect::<Vec<_>>()
     };
     let o = Command::new(bin()).args(args("600")).output().unwrap();
     let message = refused(&o, &BUDGET);

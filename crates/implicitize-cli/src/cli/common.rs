@@ -125,6 +125,14 @@ pub fn write_report(path: &Path, report: &implicitize::fit::FitReport) -> anyhow
     Ok(output::write_bytes(path, (json + "\n").as_bytes())?)
 }
 
+/// Warns on stderr (even with --quiet) when much of the grid around the mesh `source` has a
+/// winding number near one half: no trustworthy inside there.
+pub fn warn_if_open(source: &str, ambiguity: &implicitize::voxelize::Ambiguity) {
+    if let Some(warning) = ambiguity.warning() {
+        eprintln!("warning: {source}: {warning}");
+    }
+}
+
 /// Reads a mesh and reports what was repaired.
 pub fn read_mesh(path: &Path, progress: Progress) -> anyhow::Result<Mesh> {
     progress.stage(format!("reading {}", path.display()));

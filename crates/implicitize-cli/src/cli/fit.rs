@@ -9,7 +9,7 @@ use implicitize::memory::Estimate;
 use implicitize::pipeline::{self, MeshFitOptions, Prepared};
 use implicitize::{Mesh, mesh, output, polygonize};
 
-use super::common::{GridArgs, Progress, check_outputs, read_mesh, write_report};
+use super::common::{GridArgs, Progress, check_outputs, read_mesh, warn_if_open, write_report};
 use super::render::{Snapshots, compare_picture};
 
 /// How the constraints are made.
@@ -208,6 +208,7 @@ fn fit_and_write(
     let grid = args.grid.checked_grid(mesh, source, Estimate::fit)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let prepared = Prepared::new(mesh, &source.display().to_string(), &options)?;
+    warn_if_open(&source.display().to_string(), &prepared.ambiguity());
     let mut snapshots =
         outputs.snapshots.map(|dir| Snapshots::new(dir, prepared.bounds(), prepared.grid()));
     let mut fitted = prepared.fit(|line, implicit| {
