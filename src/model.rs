@@ -155,11 +155,17 @@ impl Model {
     /// whose parts do not fit together gives an error naming the file.
     pub fn load(path: &Path) -> Result<Model> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Model::load_bytes(&bytes, path)
+    }
+
+    /// Reads a model from the bytes of a model file, as [`Model::load`]; `path` names the file
+    /// in messages.
+    pub fn load_bytes(bytes: &[u8], path: &Path) -> Result<Model> {
         let json_error = |e: serde_json::Error| {
             let at = (e.line() > 0).then_some(Location::Line(e.line()));
             Error::parse(path, at, format!("not a valid model file: {e}"))
         };
-        let header: Header = serde_json::from_slice(&bytes).map_err(json_error)?;
+        let header: Header = serde_json::from_slice(bytes).map_err(json_error)?;
         if header.format.as_deref() != Some(FORMAT) {
             return Err(Error::parse(
                 path,
@@ -177,7 +183,7 @@ impl Model {
                 ),
             ));
         }
-        let file: ModelFile = serde_json::from_slice(&bytes).map_err(json_error)?;
+        let file: ModelFile = serde_json::from_slice(bytes).map_err(json_error)?;
         if file.sign != SIGN {
             return Err(Error::parse(
                 path,

@@ -24,7 +24,12 @@ pub fn write<T: npyz::AutoSerialize>(path: &Path, shape: &[u64], data: &[T]) -> 
 /// Reads a 2D array of float32 or float64 values (N rows of `columns` values) as f64 rows.
 pub fn read_rows(path: &Path) -> Result<(Vec<f64>, usize)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let npy = npyz::NpyFile::new(&bytes[..])
+    read_rows_bytes(&bytes, path)
+}
+
+/// Reads the bytes of a `.npy` file as [`read_rows`]; `path` names the file in messages.
+pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
+    let npy = npyz::NpyFile::new(bytes)
         .map_err(|e| Error::parse(path, None, format!("not a NumPy .npy file: {e}")))?;
     let shape = npy.shape().to_vec();
     let columns = match shape.as_slice() {
