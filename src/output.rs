@@ -19,7 +19,8 @@
 //! let dir = std::env::temp_dir();
 //! let path = dir.join(format!("implicitize-doc-{}.txt", std::process::id()));
 //! output::check_destination(&path)?;
-//! output::write_with(&path, |out| Ok(std::io::Write::write_all(out, b"hello\n")?))?;
+//! let io = |e| implicitize::Error::io(&path, e);
+//! output::write_with(&path, |out| std::io::Write::write_all(out, b"hello\n").map_err(io))?;
 //! assert_eq!(std::fs::read(&path).unwrap(), b"hello\n");
 //! # std::fs::remove_file(&path).unwrap();
 //! # Ok(())
