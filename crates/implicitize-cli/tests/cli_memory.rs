@@ -188,7 +188,7 @@ fn a_numpy_header_claiming_more_than_the_file_holds_is_refused() {
     let mut npy = b"\x93NUMPY\x01\x00".to_vec();
     let mut header =
         "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000000000, 3), }".to_string();
-    while (10 + header.len() + 1) % 64 != 0 {
+    while !(10 + header.len() + 1).is_multiple_of(64) {
         header.push(' ');
     }
     header.push('\n');
