@@ -30,8 +30,6 @@
 //! Densities are f32 like every volume of the crate; the blur and the threshold are computed
 //! in f32 too, far more precise than the 8 or 16 bits of the input.
 
-use std::fs::File;
-use std::io::BufReader;
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -68,6 +66,10 @@ impl Default for ImageOptions {
     }
 }
 
+/// The most bytes of pixels a PNG's bytes can decode to: deflate expands at most 1032 times;
+/// a file that declares more cannot hold its pixels, and is refused before decoding.
+pub const MAX_INFLATION: u64 = 1032;
+
 /// The largest blur accepted, in pixels.
 pub const MAX_BLUR: f64 = 100.0;
 
@@ -77,8 +79,16 @@ impl Luminance {
     /// Fails with the file's name when it cannot be read, is not a PNG, or is larger than
     /// [`Grid::MAX_AXIS`] pixels along a side.
     pub fn read_png(path: &Path) -> Result<Luminance> {
-        let file = File::open(path).map_err(|e| Error::io(path, e))?;
-        let mut decoder = png::Decoder::new(BufReader::new(file));
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        Luminance::read_png_bytes(&bytes, path)
+    }
+
+    /// Reads the bytes of a PNG file as luminance; `path` names it in messages.
+    ///
+    /// Fails as [`Luminance::read_png`], and also, before decoding, when the pixels its header
+    /// declares could not come from so few bytes (more than [`MAX_INFLATION`] times the file).
+    pub fn read_png_bytes(bytes: &[u8], path: &Path) -> Result<Luminance> {
+        let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
         decoder.set_transformations(png::Transformations::EXPAND);
         let fail = |e: png::DecodingError| match e {
             png::DecodingError::IoError(io) if io.kind() != std::io::ErrorKind::UnexpectedEof => {
@@ -106,6 +116,17 @@ impl Luminance {
         let size = reader
             .output_buffer_size()
             .ok_or_else(|| Error::parse(path, None, "the image is too large to decode"))?;
+        if size as u64 > MAX_INFLATION.saturating_mul(bytes.len() as u64) {
+            return Err(Error::parse(
+                path,
+                None,
+                format!(
+                    "the header declares {width} x {height} pixels ({size} bytes decoded), more \
+                     than its {} bytes can hold",
+                    bytes.len()
+                ),
+            ));
+        }
         let mut buffer = vec![0u8; size];
         let frame = reader.next_frame(&mut buffer).map_err(fail)?;
         let values = luminance_of(&buffer[..frame.buffer_size()], &frame)

@@ -181,12 +181,13 @@ impl<T> Volume<T> {
 
 impl Volume<f32> {
     /// Writes the volume as a float32 NumPy array indexed `[i, j, k]` (C order) at `path`, and
-    /// the grid as JSON (`{"dims", "origin", "voxel_size"}`) beside it, with `.json` for `.npy`.
+    /// the grid as JSON (`{"dims", "origin", "voxel_size"}`) beside it, with `.json` for `.npy`;
+    /// each file atomically ([`crate::output`]).
     pub fn save_npy(&self, path: &Path) -> Result<()> {
         let shape = self.grid.dims.map(|d| d as u64);
         crate::npy::write(path, &shape, &self.data)?;
         let json_path = path.with_extension("json");
         let json = serde_json::to_string_pretty(&self.grid).expect("a grid always serializes");
-        std::fs::write(&json_path, json + "\n").map_err(|e| Error::io(&json_path, e))
+        crate::output::write_bytes(&json_path, (json + "\n").as_bytes())
     }
 }

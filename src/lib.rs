@@ -83,6 +83,8 @@
 //! | combine models: union, intersection, difference | [`csg`] | 1 |
 //! | morph one model into another | [`morph`] | 1, 7 |
 //! | convert many meshes, resumably, with a manifest | [`batch`] | |
+//! | write output files atomically | [`output`] | |
+//! | estimate memory before allocating grids | [`memory`] | |
 #![deny(missing_docs)]
 
 pub mod batch;
@@ -96,11 +98,13 @@ pub mod fit;
 pub mod geometry;
 pub mod goal2d;
 pub mod grid;
+pub mod memory;
 pub mod mesh;
 pub mod metrics;
 pub mod model;
 pub mod morph;
 pub mod npy;
+pub mod output;
 pub mod pipeline;
 pub mod polygonize;
 pub mod rbf;

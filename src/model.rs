@@ -152,9 +152,9 @@ impl Model {
             + "\n"
     }
 
-    /// Writes the model as JSON to `path`.
+    /// Writes the model as JSON to `path`, atomically ([`crate::output`]).
     pub fn save(&self, path: &Path) -> Result<()> {
-        std::fs::write(path, self.to_json()).map_err(|e| Error::io(path, e))
+        crate::output::write_bytes(path, self.to_json().as_bytes())
     }
 
     /// Reads a model from `path`. A file that is not JSON, not a model, of another version, or

@@ -20,6 +20,7 @@
 use std::path::Path;
 use std::time::Instant;
 
+use crate::distance;
 use crate::error::{Error, Result};
 use crate::fit::{self, FitOptions, FitReport, Goal, IterationReport};
 use crate::geometry::Aabb;
@@ -28,7 +29,7 @@ use crate::mesh::{self, Mesh};
 use crate::metrics::RegularityOptions;
 use crate::model::Model;
 use crate::rbf::{Implicit, Isa};
-use crate::{distance, voxelize};
+use crate::voxelize::{self, Ambiguity};
 
 /// How the constraints of a fit are made.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -148,11 +149,25 @@ pub fn signed_distance_of_mesh(
     options: &voxelize::VoxelizeOptions,
     source: &str,
 ) -> Result<Volume<f32>> {
+    signed_distance_reporting(mesh, resolution, options, source).map(|(volume, _)| volume)
+}
+
+/// [`signed_distance_of_mesh`], and how much of the grid has no trustworthy inside.
+///
+/// # Errors
+/// As [`signed_distance_of_mesh`].
+pub fn signed_distance_reporting(
+    mesh: &Mesh,
+    resolution: Resolution,
+    options: &voxelize::VoxelizeOptions,
+    source: &str,
+) -> Result<(Volume<f32>, Ambiguity)> {
     let grid = grid_around(mesh, resolution, source)?;
-    let density = voxelize::voxelize(mesh, &grid, options).map_err(naming(source))?;
+    let (density, ambiguity) =
+        voxelize::voxelize_reporting(mesh, &grid, options).map_err(naming(source))?;
     let inside = distance::inside(&density);
     drop(density);
-    Ok(distance::signed_distance(&inside))
+    Ok((distance::signed_distance(&inside), ambiguity))
 }
 
 fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
@@ -193,6 +208,11 @@ impl<'a> Prepared<'a> {
         self.inside
     }
 
+    /// How much of the grid has a winding number near one half (no trustworthy inside).
+    pub fn ambiguity(&self) -> Ambiguity {
+        self.inside.ambiguity
+    }
+
     /// The grid the mesh was voxelized on.
     pub fn grid(&self) -> &Grid {
         self.goal.grid()
@@ -222,6 +242,7 @@ impl<'a> Prepared<'a> {
         let mut report = fitted.report;
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
+        report.winding_near_half = Some(self.inside.winding_near_half);
         let model = Model::from_implicit(fitted.implicit, self.bounds, Some(*self.goal.grid()));
         Ok(Fitted { model, report, inside: self.inside })
     }

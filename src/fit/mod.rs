@@ -242,6 +242,7 @@ pub fn fit(
         per_iteration,
         model_bytes: None,
         mesh_bytes: None,
+        winding_near_half: None,
     };
     Ok(Fit { implicit: stage.implicit, report })
 }

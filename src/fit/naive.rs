@@ -52,6 +52,7 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
         per_iteration: vec![IterationReport::new(1, counts, metrics, timings)],
         model_bytes: None,
         mesh_bytes: None,
+        winding_near_half: None,
     };
     Ok(super::Fit { implicit, report })
 }

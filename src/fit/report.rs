@@ -271,6 +271,10 @@ pub struct FitReport {
     pub model_bytes: Option<u64>,
     /// The size of the input mesh file, in bytes, when it came from a file.
     pub mesh_bytes: Option<u64>,
+    /// For a mesh's goal, the fraction of the grid's voxels whose generalized winding number
+    /// is near one half, where the mesh has no trustworthy inside
+    /// ([`crate::voxelize::Ambiguity`]); `None` for a goal given as densities.
+    pub winding_near_half: Option<f64>,
 }
 
 impl FitReport {

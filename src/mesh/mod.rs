@@ -40,8 +40,6 @@
 //! # Ok::<(), implicitize::Error>(())
 //! ```
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -181,7 +179,7 @@ pub fn read_bytes(bytes: &[u8], format: Format, path: &Path) -> Result<(Mesh, Re
 /// OBJ as text, PLY as binary little endian with double (f64) positions, so it reads back
 /// exactly, STL as binary (f32 positions, as the format requires), OFF as text. OBJ and OFF
 /// print each coordinate in the shortest form that reads back to the same f64, so they too
-/// round-trip exactly.
+/// round-trip exactly. The file is written atomically ([`crate::output`]).
 ///
 /// # Errors
 /// An error naming the file when its extension is unknown or it cannot be written, and an
@@ -189,15 +187,15 @@ pub fn read_bytes(bytes: &[u8], format: Format, path: &Path) -> Result<(Mesh, Re
 pub fn write(path: &Path, mesh: &Mesh) -> Result<()> {
     let format = Format::from_path(path)?;
     check_indices(mesh, path)?;
-    let file = File::create(path).map_err(|e| Error::io(path, e))?;
-    let mut out = BufWriter::new(file);
-    let written = match format {
-        Format::Obj => obj::write(&mut out, mesh),
-        Format::Ply => ply::write(&mut out, mesh),
-        Format::Stl => stl::write(&mut out, mesh),
-        Format::Off => off::write(&mut out, mesh),
-    };
-    written.and_then(|()| out.flush()).map_err(|e| Error::io(path, e))
+    crate::output::write_with(path, |out| {
+        let written = match format {
+            Format::Obj => obj::write(out, mesh),
+            Format::Ply => ply::write(out, mesh),
+            Format::Stl => stl::write(out, mesh),
+            Format::Off => off::write(out, mesh),
+        };
+        written.map_err(|e| Error::io(path, e))
+    })
 }
 
 /// Checks that every triangle indexes an existing vertex, so the writers can index freely.

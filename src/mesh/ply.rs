@@ -104,6 +104,7 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
     let header = parser.read_header(&mut reader).map_err(|e| header_error(path, &e))?;
     let body = reader.into_inner();
     let vertex_count = check_header(&header, path)?;
+    check_counts(&header, body.len(), path)?;
     let header_lines = bytes[..bytes.len() - body.len()].iter().filter(|&&b| b == b'\n').count();
     let mut payload =
         Payload { parser, encoding: header.encoding, file: bytes, rest: body, line: header_lines };
@@ -165,6 +166,45 @@ fn check_header(header: &Header, path: &Path) -> Result<usize> {
         }
     }
     Ok(vertex.count)
+}
+
+/// Refuses a header whose elements need more bytes than the `body` bytes after it hold, before
+/// reading any: at least the size of every scalar (and list count) in binary, and a character
+/// and a separator for each in ASCII.
+fn check_counts(header: &Header, body: usize, path: &Path) -> Result<()> {
+    let mut needed = 0u64;
+    for (name, def) in &header.elements {
+        let size: u64 =
+            def.properties.values().map(|p| least_bytes(&p.data_type, header.encoding)).sum();
+        let bytes = size.saturating_mul(def.count as u64);
+        needed = needed.saturating_add(bytes);
+        if needed > body as u64 + 1 {
+            return Err(Error::parse(
+                path,
+                None,
+                format!(
+                    "the header declares {} '{name}' elements, which need at least {bytes} bytes; \
+                     the file has {body} bytes after its header",
+                    def.count
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The fewest bytes a property of this type takes in a file of this encoding.
+fn least_bytes(data_type: &PropertyType, encoding: Encoding) -> u64 {
+    let scalar = match data_type {
+        PropertyType::Scalar(s) | PropertyType::List(s, _) => s,
+    };
+    match (encoding, scalar) {
+        (Encoding::Ascii, _) => 2,
+        (_, ScalarType::Char | ScalarType::UChar) => 1,
+        (_, ScalarType::Short | ScalarType::UShort) => 2,
+        (_, ScalarType::Int | ScalarType::UInt | ScalarType::Float) => 4,
+        (_, ScalarType::Double) => 8,
+    }
 }
 
 /// A header error, with the line ply-rs-bw found it on when it knows.

@@ -13,7 +13,14 @@ const AXES: [&str; 4] = ["x", "y", "z", "t"];
 
 /// Reads constraints: returns the dimension (2, 3 or 4) and the constraints in file order.
 pub fn read_constraints(path: &Path) -> Result<(usize, Vec<Constraint>)> {
-    let (columns, rows) = read_table(path, true)?;
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    read_constraints_bytes(&bytes, path)
+}
+
+/// Reads constraints from the bytes of a CSV file, as [`read_constraints`]; `path` names the
+/// file in messages.
+pub fn read_constraints_bytes(bytes: &[u8], path: &Path) -> Result<(usize, Vec<Constraint>)> {
+    let (columns, rows) = read_table(bytes, path, true)?;
     let dim = columns - 1;
     let constraints =
         rows.chunks_exact(columns).map(|r| Constraint::new(&r[..dim], r[dim])).collect();
@@ -22,8 +29,14 @@ pub fn read_constraints(path: &Path) -> Result<(usize, Vec<Constraint>)> {
 
 /// Reads points: returns the dimension (2, 3 or 4) and the coordinates, point after point.
 pub fn read_points(path: &Path) -> Result<(usize, Vec<f64>)> {
-    let (columns, rows) = read_table(path, false)?;
-    Ok((columns, rows))
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    read_points_bytes(&bytes, path)
+}
+
+/// Reads points from the bytes of a CSV file, as [`read_points`]; `path` names the file in
+/// messages.
+pub fn read_points_bytes(bytes: &[u8], path: &Path) -> Result<(usize, Vec<f64>)> {
+    read_table(bytes, path, false)
 }
 
 /// The expected header names for `dim` axes, with a value column or without.
@@ -36,9 +49,8 @@ fn header(dim: usize, value: bool) -> Vec<&'static str> {
 }
 
 /// Reads a headed numeric table: the number of columns and the numbers, row after row.
-fn read_table(path: &Path, value: bool) -> Result<(usize, Vec<f64>)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    let text = std::str::from_utf8(&bytes).map_err(|e| {
+fn read_table(bytes: &[u8], path: &Path, value: bool) -> Result<(usize, Vec<f64>)> {
+    let text = std::str::from_utf8(bytes).map_err(|e| {
         let line = bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count() + 1;
         Error::parse(path, Some(Location::Line(line)), "not UTF-8 text")
     })?;

@@ -1,7 +1,5 @@
 //! RGBA pictures: writing PNG, strips of pictures side by side, coverage masks.
 
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -59,7 +57,7 @@ impl Image {
         out
     }
 
-    /// Writes the picture as an 8-bit RGBA PNG.
+    /// Writes the picture as an 8-bit RGBA PNG, atomically ([`crate::output`]).
     ///
     /// Fails when the file cannot be written or the picture has no pixels.
     pub fn save_png(&self, path: &Path) -> Result<()> {
@@ -75,16 +73,17 @@ impl Image {
                 return Err(Error::invalid(path.display().to_string(), "the picture is too large"));
             }
         };
-        let file = File::create(path).map_err(|e| Error::io(path, e))?;
-        let mut encoder = png::Encoder::new(BufWriter::new(file), width, height);
-        encoder.set_color(png::ColorType::Rgba);
-        encoder.set_depth(png::BitDepth::Eight);
         let fail = |e: png::EncodingError| match e {
             png::EncodingError::IoError(io) => Error::io(path, io),
             other => Error::invalid(path.display().to_string(), other.to_string()),
         };
-        let mut writer = encoder.write_header().map_err(fail)?;
-        writer.write_image_data(&self.rgba).map_err(fail)?;
-        writer.finish().map_err(fail)
+        crate::output::write_with(path, |out| {
+            let mut encoder = png::Encoder::new(out, width, height);
+            encoder.set_color(png::ColorType::Rgba);
+            encoder.set_depth(png::BitDepth::Eight);
+            let mut writer = encoder.write_header().map_err(fail)?;
+            writer.write_image_data(&self.rgba).map_err(fail)?;
+            writer.finish().map_err(fail)
+        })
     }
 }

@@ -42,6 +42,14 @@
 //!   centre and neighbours all fall outside them are not supersampled and may be lost, as with
 //!   any sampling at the grid's resolution.
 //!
+//! # Where there is no trustworthy inside
+//! An open mesh has no inside of its own: the winding number caps its holes, and over a large
+//! opening (a car body without its floor, a sheet) it stays near one half over a large region,
+//! where the answer is a guess. [`voxelize_reporting`] measures how much of the grid that is
+//! ([`Ambiguity`]): the generalized winding number on a lattice of at most 16 voxels along
+//! each axis, and the fraction of those voxels where it lies within a quarter of one half.
+//! Closed meshes (however nested, duplicated, non-manifold or self-intersecting) have none.
+//!
 //! Work and memory: the rays cost time proportional to the mesh's projected area times `s^2`;
 //! the classification is parallel over slabs of the grid (rayon). Besides the densities
 //! (4 bytes a voxel), one byte a voxel holds the centres' states while voxelizing.
@@ -78,16 +86,12 @@ impl Default for VoxelizeOptions {
     }
 }
 
-/// A winding number within this of 1/2 counts as "near one half" in [`Inside`].
-pub const NEAR_HALF: f64 = 0.25;
-
 /// How the inside of a mesh was decided: whether the mesh is closed, and how often the rays
 /// could not settle a voxel centre so that the generalized winding number decided it.
 ///
-/// The winding number is evaluated only where the rays disagree (or too few vote), so the
-/// fractions count those voxel centres; elsewhere the rays agree and it is not needed. On a
-/// watertight mesh both fractions are (about) 0; on an open one, a high share of centres near
-/// one half means much of the inside was decided across holes, where the result is a guess.
+/// On a watertight mesh the rays agree almost everywhere and both fractions are (about) 0; on
+/// an open one, a high share of the grid near one half means much of the inside was decided
+/// across holes, where the result is a guess.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Inside {
     /// Every edge is shared by exactly two triangles ([`Mesh::open_edges`] is 0).
@@ -96,8 +100,45 @@ pub struct Inside {
     pub open_edges: usize,
     /// The fraction of voxel centres decided by the winding number.
     pub winding_decided: f64,
-    /// The fraction of voxel centres decided by a winding number within [`NEAR_HALF`] of 1/2.
+    /// The fraction of the grid whose winding number is near one half
+    /// ([`Ambiguity::fraction`]).
     pub winding_near_half: f64,
+    /// The sample that fraction comes from, and its warning.
+    #[serde(skip)]
+    pub ambiguity: Ambiguity,
+}
+
+/// How much of a grid has no trustworthy inside: voxels whose generalized winding number is
+/// near one half (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ambiguity {
+    /// Voxels sampled: a regular lattice of at most 16 along each axis of the grid.
+    pub sampled: usize,
+    /// Sampled voxels whose winding number `w` has `1/4 < |w| < 3/4`.
+    pub near_half: usize,
+}
+
+impl Ambiguity {
+    /// Above this fraction of the grid a warning is due ([`Ambiguity::warning`]).
+    pub const DOUBTFUL: f64 = 0.01;
+
+    /// The fraction of the grid's voxels whose winding number is near one half.
+    pub fn fraction(&self) -> f64 {
+        self.near_half as f64 / self.sampled.max(1) as f64
+    }
+
+    /// A warning (one line, no file name) when more than [`Ambiguity::DOUBTFUL`] of the grid
+    /// has a winding number near one half, or `None`.
+    pub fn warning(&self) -> Option<String> {
+        (self.fraction() > Self::DOUBTFUL).then(|| {
+            format!(
+                "the mesh is open: the winding number is near one half in {:.1}% of the grid's \
+                 voxels, where inside and outside are a guess (holes capped as a soap film \
+                 would); close the mesh for a trustworthy solid",
+                100.0 * self.fraction()
+            )
+        })
+    }
 }
 
 /// Voxelizes `mesh` on `grid`: densities in `[0, 1]`, 1 inside, 0 outside (see the module doc
@@ -110,6 +151,19 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
     Ok(voxelize_counting(mesh, grid, options)?.0)
 }
 
+/// [`voxelize`], and how much of the grid has a winding number near one half.
+///
+/// # Errors
+/// As [`voxelize`].
+pub fn voxelize_reporting(
+    mesh: &Mesh,
+    grid: &Grid,
+    options: &VoxelizeOptions,
+) -> Result<(Volume<f32>, Ambiguity)> {
+    let (volume, _, ambiguity) = voxelize_counting(mesh, grid, options)?;
+    Ok((volume, ambiguity))
+}
+
 /// [`voxelize`], and how the inside was decided.
 ///
 /// # Errors
@@ -119,30 +173,30 @@ pub fn voxelize_with_inside(
     grid: &Grid,
     options: &VoxelizeOptions,
 ) -> Result<(Volume<f32>, Inside)> {
-    let (volume, counts) = voxelize_counting(mesh, grid, options)?;
+    let (volume, counts, ambiguity) = voxelize_counting(mesh, grid, options)?;
     let open_edges = mesh.open_edges();
     let fraction = |n: &AtomicUsize| n.load(Ordering::Relaxed) as f64 / grid.len() as f64;
     let inside = Inside {
         watertight: open_edges == 0,
         open_edges,
         winding_decided: fraction(&counts.decided),
-        winding_near_half: fraction(&counts.near_half),
+        winding_near_half: ambiguity.fraction(),
+        ambiguity,
     };
     Ok((volume, inside))
 }
 
-/// The voxel centres the winding number decided, and those of them near one half.
+/// The voxel centres the winding number decided.
 #[derive(Default)]
 struct WindingCounts {
     decided: AtomicUsize,
-    near_half: AtomicUsize,
 }
 
 fn voxelize_counting(
     mesh: &Mesh,
     grid: &Grid,
     options: &VoxelizeOptions,
-) -> Result<(Volume<f32>, WindingCounts)> {
+) -> Result<(Volume<f32>, WindingCounts, Ambiguity)> {
     check(mesh, grid, options)?;
     let s = options.supersampling;
     let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
@@ -182,7 +236,27 @@ fn voxelize_counting(
             }
         }
     });
-    Ok((Volume { grid: *grid, data }, classifier.counts))
+    let ambiguity = ambiguity(&classifier.winding, grid);
+    Ok((Volume { grid: *grid, data }, classifier.counts, ambiguity))
+}
+
+/// The winding number on a lattice of at most 16 voxels along each axis of `grid`.
+fn ambiguity(winding: &Winding, grid: &Grid) -> Ambiguity {
+    let stride = grid.dims.iter().max().map_or(1, |&n| n.div_ceil(16).max(1));
+    let axis = |n: usize| (stride / 2..n).step_by(stride);
+    let points: Vec<[usize; 3]> = axis(grid.dims[0])
+        .flat_map(|i| {
+            axis(grid.dims[1]).flat_map(move |j| axis(grid.dims[2]).map(move |k| [i, j, k]))
+        })
+        .collect();
+    let near_half = points
+        .par_iter()
+        .filter(|v| {
+            let w = winding.at(DVec3::from_array(v.map(|x| x as f64))).abs();
+            w > 0.25 && w < 0.75
+        })
+        .count();
+    Ambiguity { sampled: points.len(), near_half }
 }
 
 fn check(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<()> {
@@ -295,9 +369,6 @@ impl Classifier {
         votes.verdict().unwrap_or_else(|| {
             let w = self.winding.at(DVec3::from_array(voxel.map(|x| x as f64)));
             self.counts.decided.fetch_add(1, Ordering::Relaxed);
-            if (w - 0.5).abs() < NEAR_HALF {
-                self.counts.near_half.fetch_add(1, Ordering::Relaxed);
-            }
             w > 0.5
         })
     }

@@ -2,9 +2,11 @@
 
 use std::io::IsTerminal;
 use std::path::Path;
+use std::sync::OnceLock;
 
 use clap::Args;
-use implicitize::{Grid, Mesh, Resolution, mesh, pipeline};
+use implicitize::memory::{self, Estimate};
+use implicitize::{Grid, Mesh, Resolution, mesh, output, pipeline};
 
 /// The size of the voxel grid placed around the mesh.
 #[derive(Debug, Args)]
@@ -31,6 +33,51 @@ impl GridArgs {
     pub fn grid_around(&self, mesh: &Mesh, path: &Path) -> anyhow::Result<Grid> {
         Ok(pipeline::grid_around(mesh, self.resolution(), &path.display().to_string())?)
     }
+
+    /// The grid around `mesh`, whose file is `path`, once `estimate` of the work on it (from
+    /// the grid's dimensions and the mesh's triangles) fits in the memory limit.
+    pub fn checked_grid(
+        &self,
+        mesh: &Mesh,
+        path: &Path,
+        estimate: fn([usize; 3], usize) -> Estimate,
+    ) -> anyhow::Result<Grid> {
+        let grid = self.grid_around(mesh, path)?;
+        let triangles = mesh.triangles.len();
+        check_memory(&estimate(grid.dims, triangles), |n| {
+            let grid = pipeline::grid_around(mesh, Resolution::LongestAxis(n), "").ok()?;
+            Some(estimate(grid.dims, triangles).bytes)
+        })
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        Ok(grid)
+    }
+}
+
+/// The memory limit of `--memory-limit`, or else what the machine has available.
+static MEMORY_LIMIT: OnceLock<u64> = OnceLock::new();
+
+/// Sets the memory limit from `--memory-limit`, or to the available memory when `None`.
+pub fn set_memory_limit(limit: Option<u64>) {
+    let limit = limit.or_else(memory::available).unwrap_or(u64::MAX);
+    MEMORY_LIMIT.get_or_init(|| limit);
+}
+
+/// The memory limit.
+pub fn memory_limit() -> u64 {
+    *MEMORY_LIMIT.get().unwrap_or(&u64::MAX)
+}
+
+/// Refuses `estimate` above the memory limit, naming the largest `--resolution` whose
+/// estimate (`at_resolution`, `None` where there is no such grid) fits.
+pub fn check_memory(
+    estimate: &Estimate,
+    at_resolution: impl Fn(usize) -> Option<u64>,
+) -> anyhow::Result<()> {
+    let limit = memory_limit();
+    Ok(estimate.check(limit, || {
+        memory::largest_fitting(2 * Grid::MARGIN + 2..=Grid::MAX_AXIS, limit, at_resolution)
+            .map(|n| format!("--resolution {n}"))
+    })?)
 }
 
 /// Progress lines on stderr, unless --quiet.
@@ -62,6 +109,32 @@ impl Progress {
         if !self.quiet && std::io::stderr().is_terminal() {
             eprintln!("{}...", message.as_ref());
         }
+    }
+}
+
+/// Checks, before any work, that every file in `files` can be written (its folder exists and
+/// takes files) and that every mesh in `meshes` also has a mesh file's extension.
+pub fn check_outputs(files: &[&Path], meshes: &[&Path]) -> anyhow::Result<()> {
+    for path in meshes {
+        mesh::Format::from_path(path)?;
+    }
+    for path in files.iter().chain(meshes) {
+        output::check_destination(path)?;
+    }
+    Ok(())
+}
+
+/// Writes a fit report as pretty JSON, atomically.
+pub fn write_report(path: &Path, report: &implicitize::fit::FitReport) -> anyhow::Result<()> {
+    let json = serde_json::to_string_pretty(report)?;
+    Ok(output::write_bytes(path, (json + "\n").as_bytes())?)
+}
+
+/// Warns on stderr (even with --quiet) when much of the grid around the mesh `source` has a
+/// winding number near one half: no trustworthy inside there.
+pub fn warn_if_open(source: &str, ambiguity: &implicitize::voxelize::Ambiguity) {
+    if let Some(warning) = ambiguity.warning() {
+        eprintln!("warning: {source}: {warning}");
     }
 }
 

@@ -6,7 +6,7 @@ use clap::{Args, ValueEnum};
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 
-use super::common::Progress;
+use super::common::{Progress, check_outputs};
 
 /// The operation, as typed on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -49,6 +49,7 @@ pub struct CsgArgs {
 
 /// Loads both models, combines them and writes the composite.
 pub fn run(args: &CsgArgs, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[&args.output], &[])?;
     let a = Model::load(&args.a)?;
     let b = Model::load(&args.b)?;
     let context = format!("{} {} {}", args.a.display(), args.op_name(), args.b.display());

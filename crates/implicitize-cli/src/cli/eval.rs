@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use super::common::Progress;
+use super::common::{Progress, check_outputs};
 use clap::Args;
 use implicitize::{DVec3, Field, Model, npy, rbf};
 
@@ -33,6 +33,7 @@ fn read_points(path: &Path) -> anyhow::Result<(Vec<f64>, usize)> {
 
 /// Loads the model and the points, evaluates, and writes the values.
 pub fn run(args: &EvalArgs, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[&args.output], &[])?;
     let model = Model::load(&args.model)?;
     let (points, columns) = read_points(&args.points)?;
     let dim = model.dim();

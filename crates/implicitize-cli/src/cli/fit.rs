@@ -3,13 +3,13 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use clap::{Args, ValueEnum};
-use implicitize::fit::{self, ErrorMeasure, FitOptions, FitReport};
+use implicitize::fit::{self, ErrorMeasure, FitOptions};
+use implicitize::memory::Estimate;
 use implicitize::pipeline::{self, MeshFitOptions, Prepared};
-use implicitize::{Mesh, mesh, polygonize};
+use implicitize::{Mesh, mesh, output, polygonize};
 
-use super::common::{GridArgs, Progress, read_mesh};
+use super::common::{GridArgs, Progress, check_outputs, read_mesh, warn_if_open, write_report};
 use super::render::{Snapshots, compare_picture};
 
 /// How the constraints are made.
@@ -134,6 +134,13 @@ pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
     if args.snapshots.is_some() && args.fit.method != Method::Iterative {
         anyhow::bail!("--snapshots draws the iterations of --method iterative only");
     }
+    let files: Vec<&Path> =
+        [Some(args.output.as_path()), args.report.as_deref()].into_iter().flatten().collect();
+    let meshes: Vec<&Path> = args.mesh_out.iter().map(PathBuf::as_path).collect();
+    check_outputs(&files, &meshes)?;
+    if let Some(dir) = &args.snapshots {
+        output::prepare_folder(dir)?;
+    }
     let mesh = read_mesh(&args.mesh, progress)?;
     let mesh_bytes = std::fs::metadata(&args.mesh).ok().map(|m| m.len());
     let name = args.mesh.file_stem().map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
@@ -164,8 +171,7 @@ pub struct DemoCommand {
 pub fn demo(args: &DemoCommand, progress: Progress) -> anyhow::Result<()> {
     let source = Path::new("triceratops.obj (built in)");
     let (mesh, _) = mesh::read_bytes(TRICERATOPS_OBJ, mesh::Format::Obj, source)?;
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("{}: cannot create the folder", args.output.display()))?;
+    output::prepare_folder(&args.output)?;
     let model = args.output.join("model.json");
     let report = args.output.join("report.json");
     let surface = args.output.join("surface.ply");
@@ -200,13 +206,12 @@ fn fit_and_write(
     progress: Progress,
 ) -> anyhow::Result<()> {
     let options = args.options();
-    let grid = args.grid.grid_around(mesh, source)?;
+    let grid = args.grid.checked_grid(mesh, source, Estimate::fit)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let prepared = Prepared::new(mesh, &source.display().to_string(), &options)?;
-    let mut snapshots = outputs
-        .snapshots
-        .map(|dir| Snapshots::new(dir, prepared.bounds(), prepared.grid()))
-        .transpose()?;
+    warn_if_open(&source.display().to_string(), &prepared.ambiguity());
+    let mut snapshots =
+        outputs.snapshots.map(|dir| Snapshots::new(dir, prepared.bounds(), prepared.grid()));
     let mut fitted = prepared.fit(|line, implicit| {
         progress.line(line.line());
         if let Some(snapshots) = snapshots.as_mut() {
@@ -230,10 +235,4 @@ fn fit_and_write(
     }
     progress.line(fitted.report.table(name));
     Ok(())
-}
-
-fn write_report(path: &Path, report: &FitReport) -> anyhow::Result<()> {
-    let json = serde_json::to_string_pretty(report)?;
-    std::fs::write(path, json + "\n")
-        .with_context(|| format!("{}: cannot write the report", path.display()))
 }

@@ -8,10 +8,11 @@ use clap::Args;
 use implicitize::figure2::{self, Snapshots};
 use implicitize::fit::{self, Goal};
 use implicitize::goal2d::{self, ImageOptions};
+use implicitize::memory::Estimate;
 use implicitize::model::Model;
 use implicitize::rbf::Implicit;
 
-use super::common::Progress;
+use super::common::{Progress, check_memory, check_outputs, write_report};
 use super::fit::LoopArgs;
 
 /// Arguments of `implicitize fit2d`.
@@ -50,10 +51,18 @@ const MIN_PANEL: usize = 240;
 
 /// Runs `implicitize fit2d`.
 pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
+    let files: Vec<&Path> =
+        [Some(args.output.as_path()), args.report.as_deref(), args.figure.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect();
+    check_outputs(&files, &[])?;
     let image_options =
         ImageOptions { threshold: args.threshold, blur: args.blur, invert: args.invert };
     let (density, bounds) = goal2d::read_density(&args.image, &image_options)?;
     let grid = density.grid;
+    check_memory(&Estimate::fit(grid.dims, 0), |_| None)
+        .with_context(|| args.image.display().to_string())?;
     let figure_scale = args.figure_scale.unwrap_or_else(|| default_scale(grid.dims));
     if args.figure.is_some() {
         figure2::check(&grid, figure_scale).context("--figure-scale")?;
@@ -99,10 +108,4 @@ pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
 /// The figure scale that makes each panel's longer side at least [`MIN_PANEL`] pixels.
 fn default_scale(dims: [usize; 3]) -> usize {
     MIN_PANEL.div_ceil(dims[0].max(dims[1]).max(1)).max(1)
-}
-
-fn write_report(path: &Path, report: &fit::FitReport) -> anyhow::Result<()> {
-    let json = serde_json::to_string_pretty(report)?;
-    std::fs::write(path, json + "\n")
-        .with_context(|| format!("{}: cannot write the report", path.display()))
 }

@@ -26,6 +26,10 @@ pub struct Cli {
     /// Print no progress on stderr.
     #[arg(long, short, global = true)]
     pub quiet: bool,
+    /// Refuse work estimated to need more memory than this (as 512M, 1G, 1.5G; units are
+    /// powers of 1024) [default: the machine's available memory, within `ulimit -v`].
+    #[arg(long, global = true, value_name = "SIZE", value_parser = parse_size)]
+    pub memory_limit: Option<u64>,
     #[command(subcommand)]
     command: Command,
 }
@@ -62,6 +66,7 @@ enum Command {
 pub fn run() -> ExitCode {
     let cli = Cli::parse();
     let progress = common::Progress::new(cli.quiet);
+    common::set_memory_limit(cli.memory_limit);
     let result = check_isa().and_then(|()| dispatch(&cli.command, progress));
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -70,6 +75,11 @@ pub fn run() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// Parses `--memory-limit`.
+fn parse_size(text: &str) -> Result<u64, String> {
+    implicitize::memory::parse_size(text).map_err(|e| e.to_string())
 }
 
 /// Refuses an `IMPLICITIZE_ISA` that names no instruction set or one this CPU lacks.

@@ -4,12 +4,13 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
+use implicitize::memory::Estimate;
 use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions};
 use implicitize::render::{self, Camera, Coloring, Image, March};
-use implicitize::{Grid, Resolution, mesh, polygonize};
+use implicitize::{Grid, Resolution, mesh, output, polygonize};
 
-use super::common::Progress;
+use super::common::{Progress, check_memory};
 
 /// The morph method, as typed on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -58,6 +59,7 @@ const VIEW: (f64, f64) = (30.0, 20.0);
 /// Builds the morph, polygonizes every frame and draws the strip.
 pub fn run(args: &MorphArgs, progress: Progress) -> anyhow::Result<()> {
     let times = morph::frame_times(args.steps)?;
+    output::prepare_folder(&args.output)?;
     let a = Model::load(&args.a)?;
     let b = Model::load(&args.b)?;
     let method = match args.method {
@@ -75,8 +77,14 @@ pub fn run(args: &MorphArgs, progress: Progress) -> anyhow::Result<()> {
         .with_context(|| format!("morphing {} into {}", args.a.display(), args.b.display()))?;
     let bounds = morph.bounds();
     let grid = Grid::around(&bounds, Resolution::LongestAxis(args.resolution))?;
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("cannot create the folder {}", args.output.display()))?;
+    let strip = |grid: &Grid| {
+        let width = args.strip_width.saturating_mul(times.len());
+        Estimate::polygonize(grid.dims, false).plus(&Estimate::picture(width, args.strip_width))
+    };
+    check_memory(&strip(&grid), |n| {
+        Some(strip(&Grid::around(&bounds, Resolution::LongestAxis(n)).ok()?).bytes)
+    })
+    .with_context(|| format!("morphing {} into {}", args.a.display(), args.b.display()))?;
     let camera = (args.strip_width > 0)
         .then(|| {
             Camera::framing(&bounds, VIEW.0, VIEW.1, args.strip_width, args.strip_width * 3 / 4)

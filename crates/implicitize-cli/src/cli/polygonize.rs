@@ -3,10 +3,11 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use implicitize::memory::Estimate;
 use implicitize::model::Model;
 use implicitize::{Grid, Resolution, mesh, polygonize};
 
-use super::common::Progress;
+use super::common::{Progress, check_memory, check_outputs};
 
 /// Arguments of `implicitize mesh`.
 #[derive(Debug, Args)]
@@ -27,8 +28,15 @@ pub struct MeshCommand {
 
 /// Polygonizes the model over its bounds and writes the mesh.
 pub fn run(args: &MeshCommand, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[], &[&args.output])?;
     let model = Model::load(&args.model)?;
-    let grid = Grid::around(&model.bounds(), Resolution::LongestAxis(args.resolution))?;
+    let bounds = model.bounds();
+    let grid = Grid::around(&bounds, Resolution::LongestAxis(args.resolution))?;
+    check_memory(&Estimate::polygonize(grid.dims, args.dense), |n| {
+        let grid = Grid::around(&bounds, Resolution::LongestAxis(n)).ok()?;
+        Some(Estimate::polygonize(grid.dims, args.dense).bytes)
+    })
+    .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
     progress
         .stage(format!("polygonizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let surface = if args.dense {

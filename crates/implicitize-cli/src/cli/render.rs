@@ -13,6 +13,7 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use implicitize::figure3::figure3;
 use implicitize::fit::Goal;
+use implicitize::memory::Estimate;
 use implicitize::metrics::RegularityOptions;
 use implicitize::model::Model;
 use implicitize::render::{
@@ -21,7 +22,7 @@ use implicitize::render::{
 use implicitize::voxelize::VoxelizeOptions;
 use implicitize::{Aabb, Field, Grid, Mesh, pipeline};
 
-use super::common::{GridArgs, Progress, read_mesh};
+use super::common::{GridArgs, Progress, check_memory, check_outputs, read_mesh};
 
 /// The default view: a three-quarter view from the front right and a little above.
 const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
@@ -110,7 +111,11 @@ fn union(a: &Aabb, b: &Aabb) -> Aabb {
 
 /// Runs `implicitize render`.
 pub fn run(args: &RenderCommand, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[&args.output], &[])?;
     let (width, height) = size(&args.size)?;
+    let panels = if args.compare.is_some() { 2 } else { 1 };
+    check_memory(&Estimate::picture(width * panels, height), |_| None)
+        .with_context(|| args.output.display().to_string())?;
     let [azimuth, elevation] = view(&args.view)?;
     let shape = Shape::read(&args.input, progress)?;
     let mut bounds = shape.bounds(&args.input)?;
@@ -222,7 +227,7 @@ fn goal_of(
     progress: Progress,
 ) -> anyhow::Result<Goal> {
     let source = path.display().to_string();
-    let grid = pipeline::grid_around(mesh, grid_args.resolution(), &source)?;
+    let grid = grid_args.checked_grid(mesh, path, Estimate::fit)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let options = VoxelizeOptions::default();
     Ok(pipeline::goal_of_mesh(mesh, grid_args.resolution(), &options, regularity, &source)?)
@@ -274,13 +279,11 @@ pub struct Snapshots<'a> {
 }
 
 impl<'a> Snapshots<'a> {
-    /// Snapshots into `dir` (created if need be) of surfaces fitted on `grid`, framed on
-    /// `bounds` (the mesh's) and marched through the grid's box.
-    pub fn new(dir: &'a Path, bounds: Aabb, grid: &Grid) -> anyhow::Result<Snapshots<'a>> {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("{}: cannot create the folder", dir.display()))?;
+    /// Snapshots into `dir` (made beforehand by `output::prepare_folder`) of surfaces fitted on
+    /// `grid`, framed on `bounds` (the mesh's) and marched through the grid's box.
+    pub fn new(dir: &'a Path, bounds: Aabb, grid: &Grid) -> Snapshots<'a> {
         let march = grid_box(grid);
-        Ok(Snapshots { dir, frame: bounds, march, pictures: Vec::new(), error: None })
+        Snapshots { dir, frame: bounds, march, pictures: Vec::new(), error: None }
     }
 
     /// Draws iteration `iteration`'s surface and writes its picture.

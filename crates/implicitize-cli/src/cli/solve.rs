@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use super::common::Progress;
+use super::common::{Progress, check_outputs};
 use anyhow::Context;
 use clap::Args;
 use implicitize::rbf::read_constraints;
@@ -31,6 +31,7 @@ fn parse_kernel(name: &str) -> Result<Kernel, String> {
 
 /// Reads the constraints, solves, and writes the model.
 pub fn run(args: &SolveArgs, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[&args.output], &[])?;
     let (dim, constraints) = read_constraints(&args.constraints)?;
     let start = Instant::now();
     let implicit = Implicit::solve(dim, args.kernel, &constraints).with_context(|| {

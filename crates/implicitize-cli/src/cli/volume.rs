@@ -3,9 +3,10 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use implicitize::memory::Estimate;
 use implicitize::{pipeline, voxelize};
 
-use super::common::{GridArgs, Progress, read_mesh};
+use super::common::{GridArgs, Progress, check_outputs, read_mesh, warn_if_open};
 
 /// Arguments of `voxelize` and `sdf`.
 #[derive(Debug, Args)]
@@ -31,17 +32,19 @@ pub enum VolumeKind {
 
 /// Voxelizes the mesh and writes the densities or the signed distance.
 pub fn run(args: &VolumeArgs, kind: VolumeKind, progress: Progress) -> anyhow::Result<()> {
+    check_outputs(&[&args.output, &args.output.with_extension("json")], &[])?;
     let mesh = read_mesh(&args.mesh, progress)?;
-    let grid = args.grid.grid_around(&mesh, &args.mesh)?;
+    let grid = args.grid.checked_grid(&mesh, &args.mesh, Estimate::volume)?;
     progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
     let options = voxelize::VoxelizeOptions::default();
-    let volume = match kind {
-        VolumeKind::Density => voxelize::voxelize(&mesh, &grid, &options)?,
+    let source = args.mesh.display().to_string();
+    let (volume, ambiguity) = match kind {
+        VolumeKind::Density => voxelize::voxelize_reporting(&mesh, &grid, &options)?,
         VolumeKind::SignedDistance => {
-            let source = args.mesh.display().to_string();
-            pipeline::signed_distance_of_mesh(&mesh, args.grid.resolution(), &options, &source)?
+            pipeline::signed_distance_reporting(&mesh, args.grid.resolution(), &options, &source)?
         }
     };
+    warn_if_open(&source, &ambiguity);
     volume.save_npy(&args.output)?;
     progress.line(format!(
         "wrote {} ({} x {} x {}, voxel size {})",

@@ -1,0 +1,274 @@
+//! Memory budgets: what a command will need, estimated before it allocates its grids, and
+//! checked against a limit, so a grid too large for the machine is refused with one clear line
+//! rather than ending in an allocation failure or the kernel's out-of-memory killer.
+//!
+//! The limit is by default what the machine can give ([`available`]): the kernel's estimate of
+//! the memory available to new work (`MemAvailable` in `/proc/meminfo`), and no more than this
+//! process's address-space limit (`ulimit -v`) leaves. The estimates are upper bounds of the
+//! peak resident memory measured on real meshes (see the README's table): so many bytes per
+//! voxel of each grid the work keeps, per triangle of the mesh, per pixel of a picture, plus a
+//! fixed allowance for the program itself.
+//!
+//! ```
+//! use implicitize::memory::{self, Estimate};
+//!
+//! assert_eq!(memory::parse_size("512M").unwrap(), 512 << 20);
+//! let need = Estimate::volume([100, 100, 100], 1000);
+//! assert!(need.bytes > 10_000_000);
+//! let refusal = need.check(1 << 20, || None).unwrap_err().to_string();
+//! assert!(refusal.contains("exceeds the memory limit of 1.0 MB"));
+//! ```
+
+use crate::error::{Error, Result};
+
+/// The program itself, its thread stacks and the small tables of any command.
+const BASE: u64 = 64 << 20;
+/// Bytes per triangle of an input mesh while it is read and voxelized: the file's bytes, the
+/// mesh, the re-orientation's edge table and neighbours, and the winding-number tree.
+const PER_TRIANGLE: u64 = 400;
+/// Bytes per voxel of `voxelize` and `sdf`: densities, the centres' states, inside flags, the
+/// squared distances and the output (measured: 7.9 on the bunny from 256 to 512).
+const VOLUME_PER_VOXEL: u64 = 10;
+/// Bytes per voxel of a fit on the full grid: the goal's densities, signed distance and radii,
+/// the current surface's values, signed distance and flags, and the voxelization's (measured:
+/// 18 on the bunny from 128 to 256).
+const FIT_PER_VOXEL: u64 = 28;
+/// A fit's working set besides its grids: the solve (a dense factorization of up to 2,500
+/// constraints) and the constraints' tables.
+const FIT_SOLVE: u64 = 64 << 20;
+/// Bytes per voxel of polygonizing a field evaluated at every voxel (`--dense`): the f64
+/// values, the inside bits and the vertices of the surface.
+const DENSE_PER_VOXEL: u64 = 16;
+/// Bytes per voxel of polygonizing a field by following its surface: the visited flags and
+/// the vertices and triangles along the surface (a fraction of the voxels).
+const FOLLOW_PER_VOXEL: u64 = 4;
+/// Bytes per pixel of a picture: the colours, depth, normals and positions of the rays.
+const PER_PIXEL: u64 = 64;
+
+/// Memory a piece of work will need, and what it is, for the message that refuses it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Estimate {
+    /// The estimated peak, in bytes.
+    pub bytes: u64,
+    /// What needs it, for example `"a grid of 4096 x 1938 x 1876 voxels"`.
+    pub what: String,
+}
+
+impl Estimate {
+    /// `voxelize` or `sdf` of a mesh of `triangles` triangles on a grid of `dims` voxels.
+    pub fn volume(dims: [usize; 3], triangles: usize) -> Estimate {
+        Estimate::grid(dims, VOLUME_PER_VOXEL, triangles)
+    }
+
+    /// A fit of a mesh of `triangles` triangles (0 for a picture) on a grid of `dims` voxels.
+    pub fn fit(dims: [usize; 3], triangles: usize) -> Estimate {
+        let grid = Estimate::grid(dims, FIT_PER_VOXEL, triangles);
+        Estimate { bytes: grid.bytes.saturating_add(FIT_SOLVE), ..grid }
+    }
+
+    /// Polygonizing a field on a grid of `dims` voxels, evaluating every voxel (`dense`) or
+    /// following the surface.
+    pub fn polygonize(dims: [usize; 3], dense: bool) -> Estimate {
+        let per_voxel = if dense { DENSE_PER_VOXEL } else { FOLLOW_PER_VOXEL };
+        Estimate::grid(dims, per_voxel, 0)
+    }
+
+    /// A picture of `width` x `height` pixels.
+    pub fn picture(width: usize, height: usize) -> Estimate {
+        let pixels = (width as u64).saturating_mul(height as u64);
+        Estimate {
+            bytes: BASE.saturating_add(pixels.saturating_mul(PER_PIXEL)),
+            what: format!("a picture of {width} x {height} pixels"),
+        }
+    }
+
+    /// Work of `per_voxel` bytes a voxel of a grid of `dims`, on a mesh of `triangles`.
+    fn grid(dims: [usize; 3], per_voxel: u64, triangles: usize) -> Estimate {
+        let voxels = dims.iter().fold(1u64, |n, &d| n.saturating_mul(d as u64));
+        let bytes = BASE
+            .saturating_add(voxels.saturating_mul(per_voxel))
+            .saturating_add((triangles as u64).saturating_mul(PER_TRIANGLE));
+        Estimate {
+            bytes,
+            what: format!("a grid of {} x {} x {} voxels", dims[0], dims[1], dims[2]),
+        }
+    }
+
+    /// The sum of two pieces of work held at once, named as the first.
+    pub fn plus(self, other: &Estimate) -> Estimate {
+        Estimate { bytes: self.bytes.saturating_add(other.bytes - BASE.min(other.bytes)), ..self }
+    }
+
+    /// Checks the estimate against `limit` bytes. When it does not fit, `largest` names the
+    /// largest setting that does, such as `"--resolution 1234"`, for the message.
+    ///
+    /// # Errors
+    /// One line naming what needs the memory, the estimate, the limit and, when given, the
+    /// largest setting that fits.
+    pub fn check(&self, limit: u64, largest: impl FnOnce() -> Option<String>) -> Result<()> {
+        if self.bytes <= limit {
+            return Ok(());
+        }
+        let hint = match largest() {
+            Some(setting) => format!("; the largest that fits is {setting}"),
+            None => String::new(),
+        };
+        Err(Error::invalid(
+            &self.what,
+            format!(
+                "needs about {}, which exceeds the memory limit of {} (set it with \
+                 --memory-limit){hint}",
+                show_size(self.bytes),
+                show_size(limit)
+            ),
+        ))
+    }
+}
+
+/// The largest value of `setting` in `range` whose estimate fits in `limit` bytes, given that
+/// estimates grow with the setting, or `None` when even the smallest does not fit.
+pub fn largest_fitting(
+    range: std::ops::RangeInclusive<usize>,
+    limit: u64,
+    estimate: impl Fn(usize) -> Option<u64>,
+) -> Option<usize> {
+    let fits = |n: usize| estimate(n).is_some_and(|bytes| bytes <= limit);
+    let (mut low, mut high) = (*range.start(), *range.end());
+    if !fits(low) {
+        return None;
+    }
+    while low < high {
+        let middle = low + (high - low).div_ceil(2);
+        if fits(middle) { low = middle } else { high = middle - 1 }
+    }
+    Some(low)
+}
+
+/// A size in bytes, KB, MB, GB or TB (powers of 1024), with one decimal.
+pub fn show_size(bytes: u64) -> String {
+    let units = ["bytes", "KB", "MB", "GB", "TB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < units.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 { format!("{bytes} bytes") } else { format!("{value:.1} {}", units[unit]) }
+}
+
+/// Parses a size such as `1G`, `512M`, `1.5GB`, `800k` or `1000000` (bytes); the units are
+/// powers of 1024 and their case does not matter.
+///
+/// # Errors
+/// An error naming the text when it is not a positive size.
+pub fn parse_size(text: &str) -> Result<u64> {
+    let invalid = || {
+        Error::invalid(
+            format!("memory size {text:?}"),
+            "expected a positive number with an optional unit K, M, G or T, as 512M or 1.5G",
+        )
+    };
+    let lower = text.trim().to_ascii_lowercase();
+    let number = lower.strip_suffix('b').unwrap_or(&lower);
+    let (digits, shift) = match number.char_indices().last() {
+        Some((i, 'k')) => (&number[..i], 10),
+        Some((i, 'm')) => (&number[..i], 20),
+        Some((i, 'g')) => (&number[..i], 30),
+        Some((i, 't')) => (&number[..i], 40),
+        _ => (number, 0),
+    };
+    let value: f64 = digits.trim().parse().map_err(|_| invalid())?;
+    let bytes = value * (1u64 << shift) as f64;
+    if !(bytes >= 1.0 && bytes < u64::MAX as f64) {
+        return Err(invalid());
+    }
+    Ok(bytes as u64)
+}
+
+/// The memory this process can still get: the machine's available memory (`MemAvailable`)
+/// and, under an address-space limit (`ulimit -v`), no more than the limit less the address
+/// space already in use. `None` where neither can be read (not Linux).
+pub fn available() -> Option<u64> {
+    let machine = meminfo_available();
+    let address_space = address_space_left();
+    match (machine, address_space) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// `MemAvailable` of `/proc/meminfo`, in bytes.
+fn meminfo_available() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    kilobytes_field(&text, "MemAvailable:")
+}
+
+/// The soft address-space limit of `/proc/self/limits` less the address space in use
+/// (`VmSize` of `/proc/self/status`), or `None` when unlimited or unreadable.
+fn address_space_left() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits.lines().find(|l| l.starts_with("Max address space"))?;
+    let soft: u64 = line["Max address space".len()..].split_whitespace().next()?.parse().ok()?;
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let used = kilobytes_field(&status, "VmSize:").unwrap_or(0);
+    Some(soft.saturating_sub(used))
+}
+
+/// The value of a `NAME:   1234 kB` line, in bytes.
+fn kilobytes_field(text: &str, name: &str) -> Option<u64> {
+    let line = text.lines().find(|l| l.starts_with(name))?;
+    let kb: u64 = line[name.len()..].split_whitespace().next()?.parse().ok()?;
+    Some(kb.saturating_mul(1024))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_in_powers_of_1024() {
+        assert_eq!(parse_size("1G").unwrap(), 1 << 30);
+        assert_eq!(parse_size("512m").unwrap(), 512 << 20);
+        assert_eq!(parse_size("1.5GB").unwrap(), 3 << 29);
+        assert_eq!(parse_size("800K").unwrap(), 800 << 10);
+        assert_eq!(parse_size("1000").unwrap(), 1000);
+        for bad in ["", "G", "-1G", "0", "1X", "nan", "inf", "1e30T"] {
+            let message = parse_size(bad).unwrap_err().to_string();
+            assert!(message.contains("memory size"), "{bad}: {message}");
+        }
+    }
+
+    #[test]
+    fn sizes_show_with_their_unit() {
+        assert_eq!(show_size(512), "512 bytes");
+        assert_eq!(show_size(1 << 30), "1.0 GB");
+        assert_eq!(show_size(3 << 29), "1.5 GB");
+    }
+
+    #[test]
+    fn the_largest_fitting_setting_is_found() {
+        let estimate = |n: usize| Some((n as u64).pow(3));
+        assert_eq!(largest_fitting(8..=4096, 1000, estimate), Some(10));
+        assert_eq!(largest_fitting(8..=4096, 999, estimate), Some(9));
+        assert_eq!(largest_fitting(8..=4096, 100, estimate), None);
+        assert_eq!(largest_fitting(8..=4096, u64::MAX, estimate), Some(4096));
+    }
+
+    #[test]
+    fn a_refusal_names_the_estimate_the_limit_and_the_largest_setting() {
+        let need = Estimate::volume([4096, 2000, 2000], 10);
+        let message = need.check(1 << 30, || Some("--resolution 400".into())).unwrap_err();
+        let message = message.to_string();
+        assert!(message.starts_with("a grid of 4096 x 2000 x 2000 voxels: needs about "));
+        assert!(message.contains("memory limit of 1.0 GB"), "{message}");
+        assert!(message.ends_with("the largest that fits is --resolution 400"), "{message}");
+        assert!(need.check(u64::MAX, || None).is_ok());
+    }
+
+    #[test]
+    fn this_machine_has_some_memory_available() {
+        let bytes = available().expect("Linux reports its available memory");
+        assert!(bytes > 1 << 20);
+        assert_eq!(kilobytes_field("MemAvailable:   2048 kB\n", "MemAvailable:"), Some(2 << 20));
+    }
+}
