@@ -16,10 +16,10 @@
 //! `NAME.entry.json`, the mesh's manifest line, which marks its outputs complete.
 //!
 //! # Resuming
-//! Every file is written to a temporary file in the same folder and renamed into place, so a
-//! killed run leaves no half-written output under its final name. A rerun skips a mesh whose
-//! entry says `ok` and whose outputs are all there (its manifest line is the stored one);
-//! failed meshes are tried again. The manifest is rewritten at the end of every run.
+//! Every file is written to a temporary file in the same folder and renamed into place
+//! ([`crate::output`]), so a killed run leaves no half-written output under its final name. A
+//! rerun skips a mesh whose entry says `ok` and whose outputs are all there (its manifest line
+//! is the stored one); failed meshes are tried again. The manifest is rewritten at the end of every run.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -215,7 +215,7 @@ pub fn convert(job: &Job, out: &Path, options: &BatchOptions) -> Entry {
     };
     if entry.status == Status::Ok {
         let line = serde_json::to_string(&entry).expect("an entry always serializes");
-        if let Err(e) = write_atomic(&outputs.entry, format!("{line}\n").as_bytes()) {
+        if let Err(e) = crate::output::write_bytes(&outputs.entry, format!("{line}\n").as_bytes()) {
             entry = failed_entry(job, e.to_string(), seconds);
         }
     }
@@ -259,23 +259,15 @@ fn fit_and_write(job: &Job, outputs: &Outputs, options: &BatchOptions) -> Result
     let (mesh, _) = mesh::read(&job.input)?;
     let prepared = Prepared::new(&mesh, &job.input.display().to_string(), &options.fit)?;
     if options.sdf {
-        write_volume(&outputs.sdf, &prepared.goal().sd)?;
+        prepared.goal().sd.save_npy(&outputs.sdf)?;
     }
     let mut fitted = prepared.fit(|_, _| {})?;
     fitted.report.mesh_bytes = std::fs::metadata(&job.input).ok().map(|m| m.len());
     fitted.finish();
-    write_atomic(&outputs.model, fitted.model.to_json().as_bytes())?;
+    crate::output::write_bytes(&outputs.model, fitted.model.to_json().as_bytes())?;
     let report = serde_json::to_string_pretty(&fitted.report).expect("a report always serializes");
-    write_atomic(&outputs.report, format!("{report}\n").as_bytes())?;
+    crate::output::write_bytes(&outputs.report, format!("{report}\n").as_bytes())?;
     Ok(fitted)
-}
-
-/// Writes a volume as `implicitize sdf` does (`.npy` and its `.json`), each file atomically.
-fn write_volume(path: &Path, volume: &crate::grid::Volume<f32>) -> Result<()> {
-    let temp = temporary(path);
-    volume.save_npy(&temp)?;
-    rename(&temp.with_extension("json"), &path.with_extension("json"))?;
-    rename(&temp, path)
 }
 
 /// Converts every job in parallel (at most `jobs` at once; rayon's pool of that many threads
@@ -317,31 +309,5 @@ pub fn write_manifest(out: &Path, entries: &[Entry]) -> Result<()> {
         .iter()
         .map(|e| serde_json::to_string(e).expect("an entry always serializes") + "\n")
         .collect();
-    write_atomic(&out.join(MANIFEST), text.as_bytes())
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same folder renamed into place, so
-/// that `path` is either whole or absent. (A small private helper until the library has a
-/// module for atomic outputs.)
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let temp = temporary(path);
-    std::fs::write(&temp, bytes).map_err(|e| Error::io(&temp, e))?;
-    rename(&temp, path)
-}
-
-/// A temporary name beside `path`, unique to this process and call, with the same extension.
-fn temporary(path: &Path) -> PathBuf {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = path.file_name().map_or("output".into(), |n| n.to_string_lossy().into_owned());
-    let ext = path.extension().map_or(String::new(), |e| format!(".{}", e.to_string_lossy()));
-    path.with_file_name(format!(".{name}.tmp-{}-{n}{ext}", std::process::id()))
-}
-
-fn rename(from: &Path, to: &Path) -> Result<()> {
-    std::fs::rename(from, to).map_err(|e| {
-        let _ = std::fs::remove_file(from);
-        Error::io(to, e)
-    })
+    crate::output::write_bytes(&out.join(MANIFEST), text.as_bytes())
 }
