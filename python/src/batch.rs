@@ -8,7 +8,7 @@ use implicitize::batch::{self, BatchOptions, Entry, Job};
 use pyo3::prelude::*;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::{self, FitArgs};
+use crate::inputs::FitArgs;
 
 /// The mesh files `inputs` name (files, folders, `@LIST` files), each with the name of its
 /// outputs: `[(input, name), ...]` in order.
@@ -17,34 +17,6 @@ pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
     let files = batch::collect_inputs(&inputs).map_err(to_py)?;
     let jobs = batch::plan(&files);
     Ok(jobs.into_iter().map(|j| (j.input.display().to_string(), j.name)).collect())
-}
-
-/// The batch's options from the fit's keyword arguments and `sdf`, checked.
-#[allow(clippy::too_many_arguments)]
-fn options(
-    resolution: Option<i64>,
-    dims: Option<Vec<i64>>,
-    target_error: f64,
-    seed: u64,
-    max_constraints: Option<i64>,
-    method: String,
-    max_iterations: Option<i64>,
-    subvoxel: bool,
-    full_resolution: bool,
-    sdf: bool,
-) -> PyResult<BatchOptions> {
-    let args = FitArgs {
-        resolution: inputs::resolution(resolution, dims)?,
-        target_error,
-        seed,
-        max_constraints,
-        method,
-        max_iterations: max_iterations
-            .unwrap_or(implicitize::fit::FitOptions::default().max_iterations as i64),
-        subvoxel,
-        full_resolution,
-    };
-    Ok(BatchOptions { fit: args.options()?, sdf })
 }
 
 /// Converts one mesh into `out_dir` (or takes its complete outputs from an earlier run) and
@@ -71,7 +43,7 @@ pub fn batch_convert(
     full_resolution: bool,
     sdf: bool,
 ) -> PyResult<String> {
-    let options = options(
+    let fit = FitArgs {
         resolution,
         dims,
         target_error,
@@ -81,8 +53,9 @@ pub fn batch_convert(
         max_iterations,
         subvoxel,
         full_resolution,
-        sdf,
-    )?;
+    }
+    .options()?;
+    let options = BatchOptions { fit, sdf };
     let job = Job { input, name };
     let entry = py.detach(|| {
         std::fs::create_dir_all(&out_dir)

@@ -147,8 +147,10 @@ pub fn points(points: &Bound<'_, PyAny>, dim: usize) -> PyResult<(Vec<f64>, usiz
 
 /// The options of a fit, as `implicitize fit` takes them.
 pub struct FitArgs {
-    /// The grid.
-    pub resolution: Resolution,
+    /// Voxels along the longest axis (`resolution=`), or
+    pub resolution: Option<i64>,
+    /// voxels along each axis (`dims=`); the default resolution when neither is given.
+    pub dims: Option<Vec<i64>>,
     /// Stop once E is at most this (voxels).
     pub target_error: f64,
     /// The seed of the random choices.
@@ -157,8 +159,8 @@ pub struct FitArgs {
     pub max_constraints: Option<i64>,
     /// "iterative" or "naive".
     pub method: String,
-    /// Stop after this many iterations.
-    pub max_iterations: i64,
+    /// Stop after this many iterations (the library's default when `None`).
+    pub max_iterations: Option<i64>,
     /// Measure E from points on the surfaces.
     pub subvoxel: bool,
     /// No start at half the resolution.
@@ -167,7 +169,8 @@ pub struct FitArgs {
 
 impl FitArgs {
     /// The library's options, checked: what `implicitize fit` makes of the same flags.
-    pub fn options(&self) -> PyResult<MeshFitOptions> {
+    pub fn options(self) -> PyResult<MeshFitOptions> {
+        let resolution = resolution(self.resolution, self.dims)?;
         if !(self.target_error.is_finite() && self.target_error >= 0.0) {
             return Err(invalid(format!(
                 "target_error must be a finite number of voxels >= 0, not {}",
@@ -195,7 +198,10 @@ impl FitArgs {
         };
         let fit = FitOptions {
             seed: self.seed,
-            max_iterations: count("max_iterations", self.max_iterations)?,
+            max_iterations: match self.max_iterations {
+                Some(n) => count("max_iterations", n)?,
+                None => FitOptions::default().max_iterations,
+            },
             target_error: self.target_error as f32,
             error_measure: if self.subvoxel { ErrorMeasure::SubVoxel } else { ErrorMeasure::Voxel },
             max_constraints: match self.max_constraints {
@@ -209,7 +215,7 @@ impl FitArgs {
             },
             ..FitOptions::default()
         };
-        Ok(MeshFitOptions { resolution: self.resolution, method, fit, ..Default::default() })
+        Ok(MeshFitOptions { resolution, method, fit, ..Default::default() })
     }
 }
 

@@ -256,18 +256,18 @@ pub fn fit(
     full_resolution: bool,
     progress: bool,
 ) -> PyResult<PyModel> {
-    let args = FitArgs {
-        resolution: inputs::resolution(resolution, dims)?,
+    let options = FitArgs {
+        resolution,
+        dims,
         target_error,
         seed,
         max_constraints,
         method,
-        max_iterations: max_iterations
-            .unwrap_or(implicitize::fit::FitOptions::default().max_iterations as i64),
+        max_iterations,
         subvoxel,
         full_resolution,
-    };
-    let options = args.options()?;
+    }
+    .options()?;
     let source = mesh.into_source()?;
     py.detach(|| {
         let (mesh, name, mesh_bytes) = inputs::read(source)?;
