@@ -8,8 +8,9 @@
 //! the peer comparison and the model's users need; f64 keeps it near `1e-15` of that sum.
 //! The fit's volume passes need less: each voxel's sign and the surface's position to a small
 //! fraction of a voxel. For them [`values_f32`] runs the thin-plate sum in f32 on AVX-512 (16
-//! lanes a vector, 2.6x the f64 loop); on a 768-constraint bunny model that is at most 0.005
-//! voxels off, and a test holds every iteration of a triceratops fit within 0.01 voxels.
+//! lanes a vector, 2.6x the f64 loop) and on AVX2 ([`thin_plate_avx2`], 8 lanes a vector);
+//! on a 768-constraint bunny model that is at most 0.005 voxels off, and a test holds every
+//! iteration of a triceratops fit within 0.01 voxels.
 //!
 //! ## How it is fast
 //! * Centres are stored one axis after another (SoA) in normalized coordinates.
@@ -32,6 +33,8 @@ use rayon::prelude::*;
 use super::isa::{Isa, IsaLevel};
 use super::{Implicit, Kernel, treecode};
 
+#[cfg(target_arch = "x86_64")]
+mod thin_plate_avx2;
 #[cfg(target_arch = "x86_64")]
 mod thin_plate_avx512;
 
@@ -393,18 +396,18 @@ fn in_chunks<const D: usize, T: Copy + Default>(
 }
 
 /// [`values`] with the radial sum in f32 where that is faster: the thin-plate kernel on
-/// AVX-512 (16 lanes a vector instead of 8), elsewhere the f64 loops. The error grows to about
-/// `1e-7 sum_j |d_j phi_j|` (see the module doc): for the fit's volume passes, which need only
-/// each voxel's sign and the surface's position to a small fraction of a voxel.
+/// AVX-512 (16 lanes a vector instead of 8) and on AVX2 with FMA (8 instead of 4), elsewhere
+/// the f64 loops. The error grows to about `1e-7 sum_j |d_j phi_j|` (see the module doc): for
+/// the fit's volume passes, which need only each voxel's sign and the surface's position to a
+/// small fraction of a voxel.
 pub(super) fn values_f32(
     implicit: &Implicit,
     count: usize,
     point: impl Fn(usize, &mut [f64]) + Sync,
 ) -> Vec<f64> {
     #[cfg(target_arch = "x86_64")]
-    if let Some(isa) = Some(Isa::selected()).filter(|i| i.level() == IsaLevel::Avx512)
-        && implicit.kernel == Kernel::ThinPlate
-    {
+    if implicit.kernel == Kernel::ThinPlate {
+        let isa = Isa::selected();
         return match implicit.dim {
             2 => values_dim_f32::<2>(isa, implicit, count, &point),
             3 => values_dim_f32::<3>(isa, implicit, count, &point),
@@ -414,6 +417,7 @@ pub(super) fn values_f32(
     values(implicit, count, point)
 }
 
+/// [`values_f32`] by the f32 loop of `isa`'s level (the f64 loops on the baseline).
 #[cfg(target_arch = "x86_64")]
 fn values_dim_f32<const D: usize>(
     isa: Isa,
@@ -421,22 +425,30 @@ fn values_dim_f32<const D: usize>(
     count: usize,
     point: &(impl Fn(usize, &mut [f64]) + Sync),
 ) -> Vec<f64> {
-    // The unsafe call below is sound only with an AVX-512 token.
-    assert_eq!(isa.level(), IsaLevel::Avx512, "the f32 loop runs on AVX-512 only");
     let centres: Vec<f32> = implicit.centres.iter().map(|&c| c as f32).collect();
     let weights: Vec<f32> = implicit.weights.iter().map(|&d| d as f32).collect();
-    let lanes = thin_plate_avx512::LANES_F32;
-    in_chunks::<D, f32>(
-        implicit,
-        count,
-        point,
-        lanes,
-        |x| x as f32,
-        |points, sums| {
-            // SAFETY: only reached when the CPU reported AVX-512 (`Isa::detect`).
-            unsafe { thin_plate_avx512::run_f32::<D>(&centres, &weights, points, sums) }
-        },
-    )
+    let (centres, weights) = (&centres, &weights);
+    let narrow = |x: f64| x as f32;
+    match isa.level() {
+        IsaLevel::Avx512 => {
+            in_chunks::<D, f32>(implicit, count, point, thin_plate_avx512::LANES_F32, narrow, {
+                // SAFETY: an `Isa` of this level exists only where the CPU reported AVX-512
+                // (`Isa::detect`).
+                |points, sums| unsafe {
+                    thin_plate_avx512::run_f32::<D>(centres, weights, points, sums)
+                }
+            })
+        }
+        IsaLevel::Avx2 => {
+            in_chunks::<D, f32>(implicit, count, point, thin_plate_avx2::LANES_F32, narrow, {
+                // SAFETY: as above, for AVX2 and FMA.
+                |points, sums| unsafe {
+                    thin_plate_avx2::run_f32::<D>(centres, weights, points, sums)
+                }
+            })
+        }
+        IsaLevel::Baseline => values(implicit, count, point),
+    }
 }
 
 /// The radial sums `sum_j d_j phi(|x_i - c_j|)` of `weights` at the centres `centres` (both
