@@ -182,6 +182,10 @@ impl Emitter {
         let lang = self.language;
         let centres = normalized_centres(implicit);
         let n = centres.len();
+        let _ = writeln!(
+            self.code,
+            "// node {id}: {n} radial basis functions, evaluated at q = (p - translate) / scale"
+        );
         let fetch = match self.storage {
             Storage::Constants => {
                 self.code.push_str(&constant_array(id, &centres, lang));
@@ -345,8 +349,7 @@ impl RbfParts {
             &format!("implicitize_phi_{kernel}(r2)"),
         );
         format!(
-            "// node {id}: {n} radial basis functions, evaluated at q = (p - translate) / scale\n\
-             {sig_value} {{\n\
+            "{sig_value} {{\n\
              \x20   {q} = (p - {translate}) * {inv_scale};\n\
              \x20   {f} = {p0} + dot({linear}, q);\n\
              \x20   {lp} {{\n\
