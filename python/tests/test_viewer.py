@@ -125,9 +125,10 @@ def test_a_drag_turns_the_view_and_reset_brings_it_back(models, browser):
     assert "not in the model file" not in panel, "the --report's time is shown"
     before = screenshot(browser)
     canvas = browser.find_element(By.ID, "view")
-    actions = ActionChains(browser).move_to_element_with_offset(canvas, 150, 100).click_and_hold()
+    # From the middle of the picture (beside the panel), 100 pixels right and 24 down.
+    actions = ActionChains(browser).move_to_element_with_offset(canvas, 0, 50).click_and_hold()
     for _ in range(4):
-        actions.move_by_offset(30, 8)
+        actions.move_by_offset(25, 6)
     actions.release().perform()
     drawn(browser)
     after = screenshot(browser)
