@@ -9,9 +9,34 @@
 # 3. The package built by maturin in release, into the same target directory as cargo (so the
 #    library is compiled once), and installed into the environment.
 # 4. pytest over python/tests.
+#
+# First, what the viewer and shader tests run (Debian packages, installed with apt-get only where
+# missing, through sudo when not root): chromium and chromedriver (the page of `implicitize
+# view` in a headless browser, python/tests/test_viewer.py) and glslangValidator (the GLSL of
+# `implicitize export`, crates/implicitize-cli/tests/cli_view.rs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
+
+install_missing() {
+    local missing=() pair
+    for pair in chromium:chromium chromedriver:chromium-driver glslangValidator:glslang-tools; do
+        command -v "${pair%%:*}" >/dev/null 2>&1 || missing+=("${pair#*:}")
+    done
+    [ ${#missing[@]} -eq 0 ] && return 0
+    local sudo=()
+    if [ "$(id -u)" -ne 0 ]; then
+        command -v sudo >/dev/null 2>&1 || {
+            echo "scripts/test.sh: needs ${missing[*]} (apt-get as root, or sudo)" >&2
+            return 1
+        }
+        sudo=(sudo)
+    fi
+    echo "scripts/test.sh: installing ${missing[*]}" >&2
+    "${sudo[@]}" apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq "${missing[@]}" >/dev/null
+}
+install_missing
 
 cargo test --release --workspace --locked
 

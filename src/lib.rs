@@ -79,6 +79,7 @@
 //! | the shapes a model holds; save and load models | [`shape`], [`model`] | |
 //! | a 2D goal from a PNG image; figures 2 and 3 | [`goal2d`], [`figure2`], [`figure3`] | 4.3 |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
+//! | GLSL and WGSL source of a model, for GPUs and the viewer | [`shader`] | |
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
 //! | combine models: union, intersection, difference | [`csg`] | 1 |
 //! | morph one model into another | [`morph`] | 1, 7 |
@@ -109,6 +110,7 @@ pub mod pipeline;
 pub mod polygonize;
 pub mod rbf;
 pub mod render;
+pub mod shader;
 pub mod shape;
 pub mod voxelize;
 

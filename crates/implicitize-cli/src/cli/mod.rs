@@ -11,12 +11,14 @@ mod batch;
 mod common;
 mod csg;
 mod eval;
+mod export;
 mod fit;
 mod fit2d;
 mod morph;
 mod polygonize;
 mod render;
 mod solve;
+mod view;
 mod volume;
 
 /// Turn polygon meshes into compact, smooth variational implicit surfaces, and use them.
@@ -60,6 +62,10 @@ enum Command {
     Csg(csg::CsgArgs),
     /// Morph one model into another: a mesh per frame and a picture strip (paper 1, 7).
     Morph(morph::MorphArgs),
+    /// Write a page that draws a model in a browser (WebGL2, offline), beside its mesh.
+    View(view::ViewArgs),
+    /// Write a model's function and gradient as GLSL or WGSL source.
+    Export(export::ExportArgs),
 }
 
 /// Parses the command line and runs it.
@@ -103,5 +109,7 @@ fn dispatch(command: &Command, progress: common::Progress) -> anyhow::Result<()>
         Command::Render(args) => render::run(args, progress),
         Command::Csg(args) => csg::run(args, progress),
         Command::Morph(args) => morph::run(args, progress),
+        Command::View(args) => view::run(args, progress),
+        Command::Export(args) => export::run(args, progress),
     }
 }
