@@ -90,27 +90,35 @@ def test_cluster_loses_a_worker_and_no_mesh(tmp_path, triceratops):
         address = json.loads(address_file.read_text())["address"]
         workers = [
             subprocess.Popen(
-                [DASK, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard"],
+                [DASK, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                 "--name", f"worker-{i}"],
                 **quiet,
             )
-            for _ in range(2)
+            for i in range(2)
         ]
         processes += workers
         from dask.distributed import Client
 
         with Client(address) as client:
             client.wait_for_workers(2, timeout=120)
-        driver = subprocess.Popen(
-            [sys.executable, "-m", "implicitize.batch", "--quiet", lib, "-o", out,
-             "--resolution", "72", "--scheduler", address],
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        processes.append(driver)
-        wait_for(lambda: out.is_dir() and any(out.glob("*.entry.json")), "a first mesh")
-        finished = len(list(out.glob("*.entry.json")))
-        assert finished < 12, "the worker is killed mid-batch"
-        workers[0].send_signal(signal.SIGKILL)
+            victim = next(
+                a for a, w in client.scheduler_info()["workers"].items()
+                if w["name"] == "worker-0"
+            )
+            driver = subprocess.Popen(
+                [sys.executable, "-m", "implicitize.batch", "--quiet", lib, "-o", out,
+                 "--resolution", "72", "--scheduler", address],
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+            processes.append(driver)
+            wait_for(lambda: out.is_dir() and any(out.glob("*.entry.json")), "a first mesh")
+            # Killed while it holds a conversion (one thread: it is running it), which the
+            # scheduler must then hand to the other worker.
+            wait_for(lambda: client.processing([victim])[victim], "a task on the victim")
+            finished = len(list(out.glob("*.entry.json")))
+            assert finished < 12, "the worker is killed mid-batch"
+            workers[0].send_signal(signal.SIGKILL)
         _, stderr = driver.communicate(timeout=600)
         assert driver.returncode == 0, stderr
     finally:
