@@ -539,7 +539,7 @@ mod tests {
             let shell = Volume {
                 grid,
                 data: (0..grid.len())
-                    .map(|v| ((0.7 - grid.position(grid.voxel(v)).length()) / grid.voxel_size))
+                    .map(|v| (0.7 - grid.position(grid.voxel(v)).length()) / grid.voxel_size)
                     .map(|d| d as f32)
                     .collect(),
             };
