@@ -27,8 +27,15 @@ pub fn read_rows(path: &Path) -> Result<(Vec<f64>, usize)> {
     read_rows_bytes(&bytes, path)
 }
 
+/// The longest header read, in bytes: `numpy.load`'s own limit (its `max_header_size`).
+pub const MAX_HEADER: usize = 10_000;
+
+/// The deepest nesting of brackets in a header read: a dictionary holding the shape's tuple.
+pub const MAX_HEADER_NESTING: usize = 2;
+
 /// Reads the bytes of a `.npy` file as [`read_rows`]; `path` names the file in messages.
 pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
+    check_header(bytes, path)?;
     let npy = npyz::NpyFile::new(bytes)
         .map_err(|e| Error::parse(path, None, format!("not a NumPy .npy file: {e}")))?;
     let shape = npy.shape().to_vec();
@@ -75,4 +82,91 @@ pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
         }
     };
     Ok((values, columns))
+}
+
+/// Refuses a header longer than [`MAX_HEADER`] or nested deeper than [`MAX_HEADER_NESTING`]
+/// before npyz parses it: its parser takes time exponential in the depth of unclosed brackets
+/// (found by fuzzing: a 200-byte header of 30 `[` ran for minutes). The arrays read here have
+/// a plain dtype, so no valid header of theirs nests deeper. Bytes too short to hold a header
+/// are left to npyz's own error.
+fn check_header(bytes: &[u8], path: &Path) -> Result<()> {
+    let refuse = |what: String| Err(Error::parse(path, None, format!("NumPy header: {what}")));
+    let (length, start) = match bytes.get(6) {
+        Some(1) if bytes.len() >= 10 => (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10),
+        Some(2 | 3) if bytes.len() >= 12 => {
+            (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12)
+        }
+        _ => return Ok(()),
+    };
+    if length > MAX_HEADER {
+        return refuse(format!("{length} bytes long, more than the {MAX_HEADER} read"));
+    }
+    let header = &bytes[start..bytes.len().min(start + length)];
+    let mut depth = 0usize;
+    for &b in header {
+        match b {
+            b'(' | b'[' | b'{' => depth += 1,
+            b')' | b']' | b'}' => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+        if depth > MAX_HEADER_NESTING {
+            return refuse(format!(
+                "brackets nested deeper than {MAX_HEADER_NESTING} (a plain dtype's header is a \
+                 dictionary holding the shape's tuple)"
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A version 1 file of `header` (padded as NumPy pads it) and 12 f64 values.
+    fn file(header: &str) -> Vec<u8> {
+        let mut header = header.to_string();
+        header += &" ".repeat(63 - (10 + header.len()) % 64);
+        header.push('\n');
+        let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+        bytes.extend((header.len() as u16).to_le_bytes());
+        bytes.extend(header.as_bytes());
+        bytes.extend((0..12).flat_map(|i| f64::from(i).to_le_bytes()));
+        bytes
+    }
+
+    #[test]
+    fn a_plain_header_is_read() {
+        let bytes = file("{'descr': '<f8', 'fortran_order': False, 'shape': (4, 3), }");
+        let (values, columns) = read_rows_bytes(&bytes, Path::new("p.npy")).unwrap();
+        assert_eq!((values.len(), columns), (12, 3));
+        assert_eq!(values[11], 11.0);
+    }
+
+    /// The fuzzer's input (shape, then 30 unclosed `[`), which npyz's parser took minutes over:
+    /// refused at once, naming the file.
+    #[test]
+    fn deeply_nested_brackets_are_refused_before_parsing() {
+        let header = format!(
+            "{{'descr': '<f8', 'fortran_order': False, 'shape': (4, 3),{} }}",
+            "[".repeat(30)
+        );
+        let error = read_rows_bytes(&file(&header), Path::new("p.npy")).unwrap_err().to_string();
+        assert!(error.contains("p.npy") && error.contains("nested deeper than 2"), "{error}");
+    }
+
+    #[test]
+    fn a_header_longer_than_numpy_reads_is_refused() {
+        let header = format!(
+            "{{'descr': '<f8', 'fortran_order': False, 'shape': (4, 3), 'x': '{}'}}",
+            "a".repeat(MAX_HEADER)
+        );
+        let mut bytes = file("{}");
+        bytes[6] = 2;
+        let mut long = bytes[..8].to_vec();
+        long.extend((header.len() as u32).to_le_bytes());
+        long.extend(header.as_bytes());
+        let error = read_rows_bytes(&long, Path::new("p.npy")).unwrap_err().to_string();
+        assert!(error.contains("p.npy") && error.contains("more than the 10000 read"), "{error}");
+    }
 }
