@@ -155,7 +155,7 @@ impl Samples {
 /// 4. Every other voxel is filled by trilinear interpolation of the corners of the finest cube
 ///    sampled around it, which keeps their common sign.
 ///
-/// On grids of [`SPARSE_FROM`] voxels or more along an axis, step 1 itself starts sparser: the
+/// On grids of 256 voxels or more along an axis, step 1 itself starts sparser: the
 /// field is sampled at every 8th voxel, and the 4th-voxel lattice only in the cubes of 8 voxels
 /// that step 2's rule refines (a sign change among their corners, or a voxel within 8 voxels of
 /// the goal boundary); elsewhere it is interpolated from their corners, which share a strict
@@ -164,7 +164,7 @@ impl Samples {
 /// # What this can miss
 /// A piece of surface that lies entirely inside one coarse cube whose eight corners share a
 /// sign, more than 8 voxels from the goal boundary: a detached component smaller than a coarse
-/// cube (4 voxels across, 8 on grids from [`SPARSE_FROM`]: the same fraction of the grid as 4
+/// cube (4 voxels across, 8 on grids from 256: the same fraction of the grid as 4
 /// voxels of 128), or a thin bump poking between corners, far from where the shape should be,
 /// as in the paper. Near the goal boundary, the middle level misses a zero only where
 /// the field is more than twice as steep between samples as across them, which a smooth
