@@ -91,37 +91,63 @@ fn walk(sd: &Volume<f32>, start: [usize; 3], direction: f32, options: &Regularit
 }
 
 /// The neighbour of `voxel` (of 26) where `direction * sd` rises most steeply, with the step's
-/// length, or `None` at a local maximum.
+/// length, or `None` at a local maximum. The first of equally steep neighbours (in
+/// [`NEIGHBOURS`]' order) wins.
 fn steepest_neighbour(
     sd: &Volume<f32>,
     voxel: [usize; 3],
     direction: f32,
 ) -> Option<([usize; 3], f64)> {
-    const LENGTHS: [f32; 4] = [0.0, 1.0, std::f32::consts::SQRT_2, 1.732_050_8];
-    let here = direction * *sd.get(voxel);
     let dims = sd.grid.dims;
-    let mut best: Option<([usize; 3], usize)> = None;
+    let here = direction * *sd.get(voxel);
+    let interior = (0..3).all(|a| voxel[a] >= 1 && voxel[a] + 1 < dims[a]);
+    let mut best: Option<usize> = None;
     let mut best_slope = 0.0f32;
-    for offset in NEIGHBOURS {
-        let mut next = [0usize; 3];
-        let mut inside_grid = true;
-        for a in 0..3 {
-            let c = voxel[a] as isize + offset[a];
-            inside_grid &= c >= 0 && (c as usize) < dims[a];
-            next[a] = c.max(0) as usize;
-        }
-        if !inside_grid {
-            continue;
-        }
-        let order = offset.iter().filter(|&&o| o != 0).count();
-        let slope = (direction * *sd.get(next) - here) / LENGTHS[order];
+    let mut consider = |n: usize, value: f32| {
+        let slope = (direction * value - here) / LENGTHS[ORDERS[n]];
         if slope > best_slope {
             best_slope = slope;
-            best = Some((next, order));
+            best = Some(n);
+        }
+    };
+    if interior {
+        // Away from the grid's faces every neighbour exists: read them by flat offsets.
+        let at = sd.grid.index(voxel);
+        let (row, slab) = (dims[2], dims[1] * dims[2]);
+        for (n, o) in NEIGHBOURS.iter().enumerate() {
+            let i = at.wrapping_add_signed(o[0] * slab as isize + o[1] * row as isize + o[2]);
+            consider(n, sd.data[i]);
+        }
+    } else {
+        for (n, o) in NEIGHBOURS.iter().enumerate() {
+            let next = neighbour(voxel, *o);
+            if next.iter().zip(dims).all(|(&c, d)| c < d) {
+                consider(n, *sd.get(next));
+            }
         }
     }
-    best.map(|(next, order)| (next, f64::from(LENGTHS[order])))
+    best.map(|n| (neighbour(voxel, NEIGHBOURS[n]), f64::from(LENGTHS[ORDERS[n]])))
 }
+
+/// `voxel + offset`, with coordinates that would fall below 0 wrapped past any grid.
+fn neighbour(voxel: [usize; 3], offset: [isize; 3]) -> [usize; 3] {
+    std::array::from_fn(|a| voxel[a].wrapping_add_signed(offset[a]))
+}
+
+/// The length of a step to a neighbour of each order (how many coordinates change).
+const LENGTHS: [f32; 4] = [0.0, 1.0, std::f32::consts::SQRT_2, 1.732_050_8];
+
+/// The order of each of [`NEIGHBOURS`].
+const ORDERS: [usize; 26] = {
+    let mut orders = [0; 26];
+    let mut n = 0;
+    while n < 26 {
+        let o = NEIGHBOURS[n];
+        orders[n] = (o[0] != 0) as usize + (o[1] != 0) as usize + (o[2] != 0) as usize;
+        n += 1;
+    }
+    orders
+};
 
 /// The 26 offsets to a voxel's neighbours.
 const NEIGHBOURS: [[isize; 3]; 26] = {

@@ -46,6 +46,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{Aabb, DVec3};
 
 mod assemble;
+pub(crate) mod edges;
 mod obj;
 mod off;
 mod ply;
@@ -80,29 +81,14 @@ impl Mesh {
     /// corner) has none. 0 means the mesh is watertight. Triangles indexing a missing vertex
     /// are left out.
     pub fn open_edges(&self) -> usize {
-        let mut ids = std::collections::HashMap::new();
-        let id: Vec<usize> = self
-            .vertices
+        let n = self.vertices.len();
+        let triangles: Vec<[u32; 3]> = self
+            .triangles
             .iter()
-            .map(|p| {
-                let next = ids.len();
-                *ids.entry(p.to_array().map(f64::to_bits)).or_insert(next)
-            })
+            .filter(|t| t.iter().all(|&i| (i as usize) < n))
+            .copied()
             .collect();
-        let mut edges = std::collections::HashMap::<(usize, usize), usize>::new();
-        for t in &self.triangles {
-            let Some(c) =
-                t.iter().map(|&i| id.get(i as usize).copied()).collect::<Option<Vec<_>>>()
-            else {
-                continue;
-            };
-            for (a, b) in
-                [(c[0], c[1]), (c[1], c[2]), (c[2], c[0])].into_iter().filter(|(a, b)| a != b)
-            {
-                *edges.entry((a.min(b), a.max(b))).or_default() += 1;
-            }
-        }
-        edges.values().filter(|&&n| n != 2).count()
+        edges::Edges::of(&edges::weld(&self.vertices, &triangles), n).open()
     }
 }
 

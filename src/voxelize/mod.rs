@@ -48,7 +48,10 @@
 //! where the answer is a guess. [`voxelize_reporting`] measures how much of the grid that is
 //! ([`Ambiguity`]): the generalized winding number on a lattice of at most 16 voxels along
 //! each axis, and the fraction of those voxels where it lies within a quarter of one half.
-//! Closed meshes (however nested, duplicated, non-manifold or self-intersecting) have none.
+//! Closed meshes (however nested, duplicated, non-manifold or self-intersecting: every edge
+//! traversed as often in each direction once oriented) have none, and are not sampled.
+//! The winding number's hierarchy is built only when a point needs it, which on closed
+//! meshes is rarely.
 //!
 //! Work and memory: the rays cost time proportional to the mesh's projected area times `s^2`;
 //! the classification is parallel over slabs of the grid (rayon). Besides the densities
@@ -58,6 +61,7 @@ mod orient;
 mod rays;
 mod winding;
 
+use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
@@ -94,7 +98,8 @@ impl Default for VoxelizeOptions {
 /// across holes, where the result is a guess.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Inside {
-    /// Every edge is shared by exactly two triangles ([`Mesh::open_edges`] is 0).
+    /// Every edge is shared by exactly two triangles (as [`Mesh::open_edges`] counts them,
+    /// after moving the mesh into grid coordinates).
     pub watertight: bool,
     /// The edges not shared by exactly two triangles.
     pub open_edges: usize,
@@ -109,10 +114,13 @@ pub struct Inside {
 }
 
 /// How much of a grid has no trustworthy inside: voxels whose generalized winding number is
-/// near one half (see the module doc).
+/// near one half (see the module doc). A closed mesh (every edge traversed as often in each
+/// direction once oriented) has a whole winding number everywhere off its surface, so none
+/// is near one half and nothing is sampled.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ambiguity {
-    /// Voxels sampled: a regular lattice of at most 16 along each axis of the grid.
+    /// Voxels sampled: a regular lattice of at most 16 along each axis of the grid; 0 for a
+    /// closed mesh.
     pub sampled: usize,
     /// Sampled voxels whose winding number `w` has `1/4 < |w| < 3/4`.
     pub near_half: usize,
@@ -148,7 +156,7 @@ impl Ambiguity {
 /// not finite, the grid is empty or its voxel size is not positive, or the supersampling is
 /// not odd and in 1..=15.
 pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<Volume<f32>> {
-    Ok(voxelize_counting(mesh, grid, options)?.0)
+    Ok(voxelize_with_inside(mesh, grid, options)?.0)
 }
 
 /// [`voxelize`], and how much of the grid has a winding number near one half.
@@ -160,8 +168,8 @@ pub fn voxelize_reporting(
     grid: &Grid,
     options: &VoxelizeOptions,
 ) -> Result<(Volume<f32>, Ambiguity)> {
-    let (volume, _, ambiguity) = voxelize_counting(mesh, grid, options)?;
-    Ok((volume, ambiguity))
+    let (volume, inside) = voxelize_with_inside(mesh, grid, options)?;
+    Ok((volume, inside.ambiguity))
 }
 
 /// [`voxelize`], and how the inside was decided.
@@ -173,32 +181,7 @@ pub fn voxelize_with_inside(
     grid: &Grid,
     options: &VoxelizeOptions,
 ) -> Result<(Volume<f32>, Inside)> {
-    let (volume, counts, ambiguity) = voxelize_counting(mesh, grid, options)?;
-    let open_edges = mesh.open_edges();
-    let fraction = |n: &AtomicUsize| n.load(Ordering::Relaxed) as f64 / grid.len() as f64;
-    let inside = Inside {
-        watertight: open_edges == 0,
-        open_edges,
-        winding_decided: fraction(&counts.decided),
-        winding_near_half: ambiguity.fraction(),
-        ambiguity,
-    };
-    Ok((volume, inside))
-}
-
-/// The voxel centres the winding number decided.
-#[derive(Default)]
-struct WindingCounts {
-    decided: AtomicUsize,
-}
-
-fn voxelize_counting(
-    mesh: &Mesh,
-    grid: &Grid,
-    options: &VoxelizeOptions,
-) -> Result<(Volume<f32>, WindingCounts, Ambiguity)> {
     check(mesh, grid, options)?;
-    let s = options.supersampling;
     let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
     if vertices.iter().any(|p| !p.is_finite()) {
         return Err(Error::invalid(
@@ -208,36 +191,24 @@ fn voxelize_counting(
     }
     let oriented = orient::orient(&vertices, &mesh.triangles);
     let triangles: Vec<[DVec3; 3]> =
-        oriented.iter().map(|t| t.map(|i| vertices[i as usize])).collect();
-    let (rays, winding) = rayon::join(
-        || [0, 1, 2].map(|axis| Rays::cast(axis, &triangles, grid.dims, s)),
-        || Winding::new(triangles.clone()),
-    );
-    let classifier = Classifier { rays, winding, s, counts: WindingCounts::default() };
-    let [_, ny, nz] = grid.dims;
-    let mut centre = vec![false; grid.len()];
-    centre.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
-        for j in 0..ny {
-            for k in 0..nz {
-                slab[j * nz + k] = classifier.centre_inside([i, j, k]);
-            }
-        }
-    });
-    let mut data = vec![0.0f32; grid.len()];
-    data.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
-        for j in 0..ny {
-            for k in 0..nz {
-                let voxel = [i, j, k];
-                slab[j * nz + k] = if at_surface(grid, &centre, voxel) {
-                    classifier.density(voxel)
-                } else {
-                    f32::from(u8::from(centre[grid.index(voxel)]))
-                };
-            }
-        }
-    });
-    let ambiguity = ambiguity(&classifier.winding, grid);
-    Ok((Volume { grid: *grid, data }, classifier.counts, ambiguity))
+        oriented.triangles.iter().map(|t| t.map(|i| vertices[i as usize])).collect();
+    let classifier = Classifier::new(&triangles, grid.dims, options.supersampling);
+    let centre = classifier.centres(grid);
+    let data = classifier.densities(grid, &centre);
+    let ambiguity = if oriented.closed {
+        Ambiguity { sampled: 0, near_half: 0 }
+    } else {
+        ambiguity(classifier.winding.get(), grid)
+    };
+    let decided = classifier.decided.into_inner();
+    let inside = Inside {
+        watertight: oriented.open_edges == 0,
+        open_edges: oriented.open_edges,
+        winding_decided: decided as f64 / grid.len() as f64,
+        winding_near_half: ambiguity.fraction(),
+        ambiguity,
+    };
+    Ok((Volume { grid: *grid, data }, inside))
 }
 
 /// The winding number on a lattice of at most 16 voxels along each axis of `grid`.
@@ -313,14 +284,27 @@ fn at_surface(grid: &Grid, centre: &[bool], voxel: [usize; 3]) -> bool {
     })
 }
 
+/// The winding number's hierarchy, built when a point first needs it: on a closed mesh the
+/// rays settle (nearly) every point, and building it for millions of triangles takes seconds.
+struct LazyWinding<'a> {
+    triangles: &'a [[DVec3; 3]],
+    tree: OnceLock<Winding>,
+}
+
+impl LazyWinding<'_> {
+    fn get(&self) -> &Winding {
+        self.tree.get_or_init(|| Winding::new(self.triangles.to_vec()))
+    }
+}
+
 /// Classifies points of the voxels' sub-lattices: sample `b` (0..s) along an axis of voxel `i`
 /// lies at grid coordinate `i + (b - h) / s`, `h = (s - 1) / 2`.
-struct Classifier {
+struct Classifier<'a> {
     rays: [Rays; 3],
-    winding: Winding,
+    winding: LazyWinding<'a>,
     s: usize,
-    /// Counted over voxel centres only.
-    counts: WindingCounts,
+    /// The voxel centres the winding number decided.
+    decided: AtomicUsize,
 }
 
 /// The votes of the rays at one point.
@@ -349,11 +333,53 @@ impl Votes {
     }
 }
 
-impl Classifier {
+impl<'a> Classifier<'a> {
+    /// Casts the rays along the three axes through `triangles` (grid coordinates).
+    fn new(triangles: &'a [[DVec3; 3]], dims: [usize; 3], s: usize) -> Classifier<'a> {
+        let cast = |axis| Rays::cast(axis, triangles, dims, s);
+        let (x, (y, z)) = rayon::join(|| cast(0), || rayon::join(|| cast(1), || cast(2)));
+        let winding = LazyWinding { triangles, tree: OnceLock::new() };
+        Classifier { rays: [x, y, z], winding, s, decided: AtomicUsize::new(0) }
+    }
+
+    /// Whether each voxel centre of `grid` is inside.
+    fn centres(&self, grid: &Grid) -> Vec<bool> {
+        let [_, ny, nz] = grid.dims;
+        let mut centre = vec![false; grid.len()];
+        centre.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
+            for j in 0..ny {
+                for k in 0..nz {
+                    slab[j * nz + k] = self.centre_inside([i, j, k]);
+                }
+            }
+        });
+        centre
+    }
+
+    /// The densities: supersampled where a voxel's centre differs from a 6-neighbour's, the
+    /// centre's state elsewhere.
+    fn densities(&self, grid: &Grid, centre: &[bool]) -> Vec<f32> {
+        let [_, ny, nz] = grid.dims;
+        let mut data = vec![0.0f32; grid.len()];
+        data.par_chunks_mut(ny * nz).enumerate().for_each(|(i, slab)| {
+            for j in 0..ny {
+                for k in 0..nz {
+                    let voxel = [i, j, k];
+                    slab[j * nz + k] = if at_surface(grid, centre, voxel) {
+                        self.density(voxel)
+                    } else {
+                        f32::from(u8::from(centre[grid.index(voxel)]))
+                    };
+                }
+            }
+        });
+        data
+    }
+
     /// Whether `p` (grid coordinates) is inside, given the rays' votes there: their verdict,
     /// or the winding number where they are too few or disagree.
     fn decide(&self, votes: Votes, p: DVec3) -> bool {
-        votes.verdict().unwrap_or_else(|| self.winding.at(p) > 0.5)
+        votes.verdict().unwrap_or_else(|| self.winding.get().at(p) > 0.5)
     }
 
     /// Whether the centre of `voxel` is inside.
@@ -367,8 +393,8 @@ impl Classifier {
             votes.add(vote(hits, voxel[axis] as f64));
         }
         votes.verdict().unwrap_or_else(|| {
-            let w = self.winding.at(DVec3::from_array(voxel.map(|x| x as f64)));
-            self.counts.decided.fetch_add(1, Ordering::Relaxed);
+            let w = self.winding.get().at(DVec3::from_array(voxel.map(|x| x as f64)));
+            self.decided.fetch_add(1, Ordering::Relaxed);
             w > 0.5
         })
     }

@@ -9,17 +9,33 @@
 //! 4. If the whole mesh then encloses a negative signed volume it is turned inside out, so a
 //!    file that is mostly flipped comes out outward facing.
 
-use std::collections::HashMap;
+use rayon::prelude::*;
 
 use crate::geometry::DVec3;
+use crate::mesh::edges::{Edges, weld};
 
-/// The triangles re-oriented as described in the module doc (same vertex indices).
-pub(crate) fn orient(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
+/// A mesh's triangles re-oriented, and whether the result is closed.
+pub(crate) struct Oriented {
+    /// The triangles re-oriented as described in the module doc (same vertex indices).
+    pub triangles: Vec<[u32; 3]>,
+    /// Every edge (between welded vertices) is traversed as often in one direction as in the
+    /// other: the triangles bound a region, so the winding number is a whole number
+    /// everywhere off the surface (never near one half), however the mesh is nested,
+    /// duplicated, non-manifold or self-intersecting.
+    pub closed: bool,
+    /// The edges not used by exactly two triangles ([`Edges::open`]).
+    pub open_edges: usize,
+}
+
+/// Re-orients the triangles as described in the module doc.
+pub(crate) fn orient(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Oriented {
     let welded = weld(vertices, triangles);
-    let neighbours = manifold_neighbours(&welded);
+    let edges = Edges::of(&welded, vertices.len());
+    let neighbours = manifold_neighbours(&edges, triangles.len());
     let (flip, component) = propagate(&neighbours);
-    let area: Vec<f64> = triangles.iter().map(|t| vector_area(vertices, *t).length()).collect();
+    let area: Vec<f64> = triangles.par_iter().map(|t| vector_area(vertices, *t).length()).collect();
     let flip = keep_majority(&flip, &component, &area);
+    let closed = balanced(&edges, &flip);
     let mut oriented: Vec<[u32; 3]> = triangles
         .iter()
         .zip(&flip)
@@ -27,7 +43,7 @@ pub(crate) fn orient(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]
         .collect();
     let centre = vertices.iter().copied().sum::<DVec3>() / vertices.len().max(1) as f64;
     let volume: f64 = oriented
-        .iter()
+        .par_iter()
         .map(|t| {
             let [a, b, c] = t.map(|i| vertices[i as usize] - centre);
             a.dot(b.cross(c))
@@ -36,7 +52,7 @@ pub(crate) fn orient(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]
     if volume < 0.0 {
         oriented.iter_mut().for_each(|t| t.swap(1, 2));
     }
-    oriented
+    Oriented { triangles: oriented, closed, open_edges: edges.open() }
 }
 
 /// Twice the vector area of triangle `t` (its normal times twice its area).
@@ -45,51 +61,42 @@ fn vector_area(vertices: &[DVec3], t: [u32; 3]) -> DVec3 {
     (b - a).cross(c - a)
 }
 
-/// The triangles with every vertex replaced by the first vertex at the same position.
-fn weld(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut first: HashMap<[u64; 3], u32> = HashMap::with_capacity(vertices.len());
-    let canonical: Vec<u32> = vertices
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            // +0.0 so that -0.0 and 0.0 weld.
-            let key = (*p + DVec3::ZERO).to_array().map(f64::to_bits);
-            *first.entry(key).or_insert(i as u32)
-        })
-        .collect();
-    triangles.iter().map(|t| t.map(|i| canonical[i as usize])).collect()
-}
+/// No neighbour, in [`manifold_neighbours`]' lists.
+const NONE: u32 = u32::MAX;
 
-/// For every triangle, its neighbours across manifold edges and whether the neighbour
-/// traverses the shared edge in the same direction (so one of the two must be flipped).
-fn manifold_neighbours(triangles: &[[u32; 3]]) -> Vec<Vec<(u32, bool)>> {
-    // (edge key, triangle, whether the triangle traverses it from the smaller vertex)
-    let mut edges: Vec<(u64, u32, bool)> = Vec::with_capacity(triangles.len() * 3);
-    for (t, tri) in triangles.iter().enumerate() {
-        for e in 0..3 {
-            let (a, b) = (tri[e], tri[(e + 1) % 3]);
-            if a != b {
-                let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
-                edges.push((key, t as u32, a < b));
-            }
+/// For every triangle, its neighbours across manifold edges (at most one an edge, so three;
+/// [`NONE`] fills the rest) and whether the neighbour traverses the shared edge in the same
+/// direction (so one of the two must be flipped).
+fn manifold_neighbours(edges: &Edges, triangles: usize) -> Vec<[(u32, bool); 3]> {
+    let mut neighbours = vec![[(NONE, false); 3]; triangles];
+    let mut add = |s: u32, t: u32, same: bool| {
+        if let Some(slot) = neighbours[s as usize].iter_mut().find(|n| n.0 == NONE) {
+            *slot = (t, same);
         }
-    }
-    edges.sort_unstable();
-    let mut neighbours = vec![Vec::new(); triangles.len()];
-    for group in edges.chunk_by(|x, y| x.0 == y.0) {
+    };
+    for group in edges.groups() {
         if let [(_, s, ds), (_, t, dt)] = *group
             && s != t
         {
-            neighbours[s as usize].push((t, ds == dt));
-            neighbours[t as usize].push((s, ds == dt));
+            add(s, t, ds == dt);
+            add(t, s, ds == dt);
         }
     }
     neighbours
 }
 
+/// Whether, with the triangles flipped as `flip` says, every edge is traversed as often in
+/// each direction.
+fn balanced(edges: &Edges, flip: &[bool]) -> bool {
+    edges.groups().all(|group| {
+        let forward = group.iter().filter(|&&(_, t, up)| up ^ flip[t as usize]).count();
+        2 * forward == group.len()
+    })
+}
+
 /// Breadth-first propagation of orientation: for each triangle whether to flip it relative
 /// to the file, and its connected component. Conflicts (non-orientable surfaces) are ignored.
-fn propagate(neighbours: &[Vec<(u32, bool)>]) -> (Vec<bool>, Vec<u32>) {
+fn propagate(neighbours: &[[(u32, bool); 3]]) -> (Vec<bool>, Vec<u32>) {
     let n = neighbours.len();
     let mut flip = vec![false; n];
     let mut component = vec![u32::MAX; n];
@@ -102,7 +109,7 @@ fn propagate(neighbours: &[Vec<(u32, bool)>]) -> (Vec<bool>, Vec<u32>) {
         component[seed] = next;
         queue.push_back(seed);
         while let Some(t) = queue.pop_front() {
-            for &(u, same) in &neighbours[t] {
+            for &(u, same) in neighbours[t].iter().filter(|n| n.0 != NONE) {
                 let u = u as usize;
                 if component[u] == u32::MAX {
                     component[u] = next;
@@ -145,12 +152,33 @@ mod tests {
     fn fixes_flipped_and_inverted_tetrahedra() {
         let (v, t) = tetrahedron();
         assert!(signed_volume(&v, &t) > 0.0);
-        assert_eq!(orient(&v, &t), t);
+        let o = orient(&v, &t);
+        assert!(o.closed);
+        assert_eq!(o.triangles, t);
         let mut flipped = t.clone();
         flipped[1].swap(1, 2);
-        assert_eq!(orient(&v, &flipped), t);
+        assert_eq!(orient(&v, &flipped).triangles, t);
         let inverted: Vec<[u32; 3]> = t.iter().map(|&[a, b, c]| [a, c, b]).collect();
         let o = orient(&v, &inverted);
-        assert!(signed_volume(&v, &o) > 0.0);
+        assert!(signed_volume(&v, &o.triangles) > 0.0);
+    }
+
+    #[test]
+    fn closed_only_without_a_boundary() {
+        let (v, t) = tetrahedron();
+        assert!(!orient(&v, &t[..3]).closed);
+        // The same tetrahedron twice, once inside out: every edge used four times, balanced.
+        let mut twice = t.clone();
+        twice.extend(t.iter().map(|&[a, b, c]| [a, c, b]));
+        assert!(orient(&v, &twice).closed);
+        // Unwelded copies of the vertices (as STL gives them) still close.
+        let mut unwelded = v.clone();
+        unwelded.extend_from_slice(&v);
+        let split: Vec<[u32; 3]> = t
+            .iter()
+            .enumerate()
+            .map(|(i, t)| if i % 2 == 0 { t.map(|x| x + 4) } else { *t })
+            .collect();
+        assert!(orient(&unwelded, &split).closed);
     }
 }
