@@ -33,6 +33,7 @@ pub(crate) struct Edges {
 }
 
 impl Edges {
+    /// The edges of `triangles`, whose corners index `vertices` vertices.
     pub(crate) fn of(triangles: &[[u32; 3]], vertices: usize) -> Edges {
         let each = |&tri: &[u32; 3]| {
             (0..3).map(move |e| (tri[e], tri[(e + 1) % 3])).filter(|(a, b)| a != b)

@@ -35,11 +35,8 @@ struct Node {
     /// `sum over triangles of area_t (c_t - centre)^T` (c_t the centroid, area_t the vector
     /// area): how the normals turn across the cluster, the expansion's first-order term.
     moment: DMat3,
-    /// A bound on the distance from `centre` to a vertex of the cluster.
+    /// The distance from `centre` to the cluster's farthest vertex.
     radius: f64,
-    /// The bounding box of the cluster's vertices.
-    lo: DVec3,
-    hi: DVec3,
     /// Range of the cluster's triangles in `Winding::triangles`.
     start: u32,
     end: u32,
@@ -69,13 +66,13 @@ impl Winding {
         let triangles = order.iter().map(|&(_, t)| triangles[t]).collect();
         let mut w = Winding { nodes, triangles };
         w.summarize(0);
-        w.tighten_radii();
+        w.measure_radii();
         w
     }
 
-    /// Replaces each node's radius bound by the exact distance from its centre to its
+    /// Sets each node's radius: the distance from its centre to its
     /// farthest vertex (every level of the tree reads all its triangles once, in parallel).
-    fn tighten_radii(&mut self) {
+    fn measure_radii(&mut self) {
         let triangles = &self.triangles;
         self.nodes.par_iter_mut().for_each(|node| {
             let tris = &triangles[node.start as usize..node.end as usize];
@@ -88,8 +85,7 @@ impl Winding {
         });
     }
 
-    /// Fills in the centre, vector area, curvature moment and radius of node `n` and its
-    /// descendants, children first: a leaf from its triangles (each at its centroid), an inner
+    /// Fills in the centre, areas and moment of node `n` and its descendants, children first: a leaf from its triangles (each at its centroid), an inner
     /// node from its children's summaries, so the whole tree costs time linear in its size.
     fn summarize(&mut self, n: usize) {
         if self.nodes.is_empty() {
@@ -115,22 +111,13 @@ impl Winding {
         };
         let mut area = DVec3::ZERO;
         let mut moment = DMat3::ZERO;
-        let mut radius = 0.0f64;
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         for p in &parts {
             area += p.area;
             // Moved to the new centre: each triangle's offset grows by (p.centre - centre).
             moment += p.moment + outer(p.area, p.centre - centre);
-            radius = radius.max(p.centre.distance(centre) + p.radius);
-            (lo, hi) = (lo.min(p.lo), hi.max(p.hi));
         }
-        // The box's farthest corner bounds the radius too, and tighter high in the tree.
-        let corner = (centre - lo).abs().max((hi - centre).abs());
-        let radius = radius.min(corner.length());
         let node = &mut self.nodes[n];
-        (node.centre, node.area, node.weight, node.moment, node.radius) =
-            (centre, area, total, moment, radius);
-        (node.lo, node.hi) = (lo, hi);
+        (node.centre, node.area, node.weight, node.moment) = (centre, area, total, moment);
     }
 
     /// The generalized winding number at `q`.
@@ -171,24 +158,18 @@ struct Summary {
     weight: f64,
     area: DVec3,
     moment: DMat3,
-    radius: f64,
-    lo: DVec3,
-    hi: DVec3,
 }
 
 impl Summary {
     fn of_triangle(&[a, b, c]: &[DVec3; 3]) -> Summary {
         let centre = (a + b + c) / 3.0;
         let area = 0.5 * (b - a).cross(c - a);
-        let radius = [a, b, c].iter().map(|p| p.distance(centre)).fold(0.0, f64::max);
-        let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
-        Summary { centre, weight: area.length(), area, moment: DMat3::ZERO, radius, lo, hi }
+        Summary { centre, weight: area.length(), area, moment: DMat3::ZERO }
     }
 
     fn of_node(node: &Node) -> Summary {
-        let (centre, weight, area, moment, radius) =
-            (node.centre, node.weight, node.area, node.moment, node.radius);
-        Summary { centre, weight, area, moment, radius, lo: node.lo, hi: node.hi }
+        let (centre, weight, area, moment) = (node.centre, node.weight, node.area, node.moment);
+        Summary { centre, weight, area, moment }
     }
 }
 
@@ -222,8 +203,6 @@ fn split(nodes: &mut Vec<Node>, order: &mut [(DVec3, usize)], start: usize) -> u
         weight: 0.0,
         moment: DMat3::ZERO,
         radius: 0.0,
-        lo: DVec3::ZERO,
-        hi: DVec3::ZERO,
         start: start as u32,
         end: end as u32,
         right: 0,
