@@ -84,11 +84,13 @@ pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
     Ok((values, columns))
 }
 
-/// Refuses a header longer than [`MAX_HEADER`] or nested deeper than [`MAX_HEADER_NESTING`]
-/// before npyz parses it: its parser takes time exponential in the depth of unclosed brackets
-/// (found by fuzzing: a 200-byte header of 30 `[` ran for minutes). The arrays read here have
-/// a plain dtype, so no valid header of theirs nests deeper. Bytes too short to hold a header
-/// are left to npyz's own error.
+/// Refuses a header longer than [`MAX_HEADER`], nested deeper than [`MAX_HEADER_NESTING`], or
+/// with a shape whose entries are not whole numbers or multiply past 2^64, before npyz parses
+/// it. Found by fuzzing: npyz's parser takes time exponential in the depth of unclosed
+/// brackets (a 200-byte header of 30 `[` ran for minutes), and it multiplies the shape's
+/// entries unchecked (an overflow, a panic where overflow checks are on). The arrays read here
+/// have a plain dtype, so no valid header of theirs nests deeper. Bytes too short to hold a
+/// header are left to npyz's own error.
 fn check_header(bytes: &[u8], path: &Path) -> Result<()> {
     let refuse = |what: String| Err(Error::parse(path, None, format!("NumPy header: {what}")));
     let (length, start) = match bytes.get(6) {
@@ -114,6 +116,29 @@ fn check_header(bytes: &[u8], path: &Path) -> Result<()> {
                 "brackets nested deeper than {MAX_HEADER_NESTING} (a plain dtype's header is a \
                  dictionary holding the shape's tuple)"
             ));
+        }
+    }
+    check_shapes(&String::from_utf8_lossy(header)).or_else(refuse)
+}
+
+/// Checks every tuple following a `shape` key of the header's dictionary: its entries are
+/// whole numbers whose product fits in 64 bits. The message says what is wrong.
+fn check_shapes(header: &str) -> std::result::Result<(), String> {
+    for (at, _) in header.match_indices("shape") {
+        let rest = &header[at..];
+        let Some(tuple) = rest.find('(').and_then(|open| {
+            rest[open + 1..].find(')').map(|close| &rest[open + 1..open + 1 + close])
+        }) else {
+            continue;
+        };
+        let mut product = 1u64;
+        for entry in tuple.split(',').map(str::trim).filter(|e| !e.is_empty()) {
+            let n: u64 = entry
+                .parse()
+                .map_err(|_| format!("the shape's entry {entry:?} is not a whole number"))?;
+            product = product
+                .checked_mul(n)
+                .ok_or_else(|| format!("the shape ({tuple}) has more elements than 2^64"))?;
         }
     }
     Ok(())
@@ -153,6 +178,19 @@ mod tests {
         );
         let error = read_rows_bytes(&file(&header), Path::new("p.npy")).unwrap_err().to_string();
         assert!(error.contains("p.npy") && error.contains("nested deeper than 2"), "{error}");
+    }
+
+    /// The fuzzer's input: a shape whose entries npyz multiplied past 2^64 (a panic with
+    /// overflow checks on), and one whose entry is no number.
+    #[test]
+    fn shapes_too_large_or_not_numbers_are_refused() {
+        let huge = "{'descr': '<f8', 'fortran_order': False, \
+                    'shape': (4000000000, 9000000000000, 3), }";
+        let error = read_rows_bytes(&file(huge), Path::new("p.npy")).unwrap_err().to_string();
+        assert!(error.contains("p.npy") && error.contains("more elements than 2^64"), "{error}");
+        let odd = "{'descr': '<f2', 'fortran_order': False, 'shape': (4+++0009, 3), }";
+        let error = read_rows_bytes(&file(odd), Path::new("p.npy")).unwrap_err().to_string();
+        assert!(error.contains("\"4+++0009\" is not a whole number"), "{error}");
     }
 
     #[test]
