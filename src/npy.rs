@@ -85,8 +85,8 @@ pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
 }
 
 /// Refuses a header longer than [`MAX_HEADER`], nested deeper than [`MAX_HEADER_NESTING`], or
-/// with a shape whose entries are not whole numbers or multiply past 2^64, before npyz parses
-/// it. Found by fuzzing: npyz's parser takes time exponential in the depth of unclosed
+/// with a shape whose entries are not whole numbers or whose non-zero entries multiply past
+/// 2^64, before npyz parses it. Found by fuzzing: npyz's parser takes time exponential in the depth of unclosed
 /// brackets (a 200-byte header of 30 `[` ran for minutes), and it multiplies the shape's
 /// entries unchecked (an overflow, a panic where overflow checks are on). The arrays read here
 /// have a plain dtype, so no valid header of theirs nests deeper. Bytes too short to hold a
@@ -121,24 +121,30 @@ fn check_header(bytes: &[u8], path: &Path) -> Result<()> {
     check_shapes(&String::from_utf8_lossy(header)).or_else(refuse)
 }
 
-/// Checks every tuple following a `shape` key of the header's dictionary: its entries are
-/// whole numbers whose product fits in 64 bits. The message says what is wrong.
+/// Checks every tuple (or list) following a `shape` key of the header's dictionary: its
+/// entries are whole numbers, and the product of those that are not 0 fits in 64 bits (which
+/// bounds every partial product npyz takes, in any order). The message says what is wrong.
 fn check_shapes(header: &str) -> std::result::Result<(), String> {
     for (at, _) in header.match_indices("shape") {
         let rest = &header[at..];
-        let Some(tuple) = rest.find('(').and_then(|open| {
-            rest[open + 1..].find(')').map(|close| &rest[open + 1..open + 1 + close])
-        }) else {
+        let Some(open) = rest.find(['(', '[']) else {
             continue;
         };
+        let close = if rest.as_bytes()[open] == b'(' { ')' } else { ']' };
+        let Some(length) = rest[open + 1..].find(close) else {
+            continue;
+        };
+        let entries = &rest[open + 1..open + 1 + length];
         let mut product = 1u64;
-        for entry in tuple.split(',').map(str::trim).filter(|e| !e.is_empty()) {
-            let n: u64 = entry
-                .parse()
-                .map_err(|_| format!("the shape's entry {entry:?} is not a whole number"))?;
-            product = product
-                .checked_mul(n)
-                .ok_or_else(|| format!("the shape ({tuple}) has more elements than 2^64"))?;
+        for entry in entries.split(',').map(str::trim).filter(|e| !e.is_empty()) {
+            let n: u64 = entry.parse().map_err(|_| {
+                format!("the shape's entry {entry:?} is not a whole number below 2^64")
+            })?;
+            if n != 0 {
+                product = product
+                    .checked_mul(n)
+                    .ok_or_else(|| format!("the shape ({entries}) has more elements than 2^64"))?;
+            }
         }
     }
     Ok(())
@@ -191,6 +197,12 @@ mod tests {
         let odd = "{'descr': '<f2', 'fortran_order': False, 'shape': (4+++0009, 3), }";
         let error = read_rows_bytes(&file(odd), Path::new("p.npy")).unwrap_err().to_string();
         assert!(error.contains("\"4+++0009\" is not a whole number"), "{error}");
+        // A list for the tuple, and a zero that would hide the overflow of the rest.
+        for shape in ["[4000000000, 9000000000000, 3]", "(0, 1099511627776, 1099511627776)"] {
+            let header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': {shape}, }}");
+            let error = read_rows_bytes(&file(&header), Path::new("p.npy")).unwrap_err();
+            assert!(error.to_string().contains("more elements than 2^64"), "{shape}: {error}");
+        }
     }
 
     #[test]

@@ -65,7 +65,7 @@ impl Edges {
         Edges { start, uses }
     }
 
-    /// The edges not used by exactly two triangles.
+    /// The edges not used exactly twice (a triangle with a repeated corner uses one edge twice).
     pub(crate) fn open(&self) -> usize {
         self.groups().filter(|group| group.len() != 2).count()
     }

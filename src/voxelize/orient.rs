@@ -19,11 +19,11 @@ pub(crate) struct Oriented {
     /// The triangles re-oriented as described in the module doc (same vertex indices).
     pub triangles: Vec<[u32; 3]>,
     /// Every edge (between welded vertices) is traversed as often in one direction as in the
-    /// other: the triangles bound a region, so the winding number is a whole number
-    /// everywhere off the surface (never near one half), however the mesh is nested,
-    /// duplicated, non-manifold or self-intersecting.
+    /// other: the triangles form a closed surface (whose parts may cancel), so the exact
+    /// winding number is a whole number everywhere off it (never near one half), however the
+    /// mesh is nested, duplicated, non-manifold or self-intersecting.
     pub closed: bool,
-    /// The edges not used by exactly two triangles ([`Edges::open`]).
+    /// The edges not used exactly twice ([`Edges::open`]).
     pub open_edges: usize,
 }
 

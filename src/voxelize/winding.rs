@@ -10,12 +10,11 @@
 //!
 //! The dipole alone is not enough: from inside a finely tessellated sphere its error adds up
 //! over the clusters, all curved the same way: 0.3 (of 1) inside the inner sphere of a hollow
-//! ball, of 50,000 triangles as of 2.6 million. With
+//! ball, whether of 50,000 triangles or of 2.6 million. With
 //! the first-order term at `BETA = 3` the largest error measured against the exact sum at
 //! random points around a hollow ball, a cube and the bunny was 0.03 (the tests check 0.05).
 
 use glam::DMat3;
-use rayon::prelude::*;
 
 use crate::geometry::DVec3;
 
@@ -70,11 +69,13 @@ impl Winding {
         w
     }
 
-    /// Sets each node's radius: the distance from its centre to its
-    /// farthest vertex (every level of the tree reads all its triangles once, in parallel).
+    /// Sets each node's radius: the distance from its centre to its farthest vertex (every
+    /// level of the tree reads all its triangles once). Serial on purpose: the tree is built
+    /// lazily from inside the voxelizer's parallel loops, where a nested parallel loop could
+    /// hand this thread one of their tasks, which would ask for the tree being built.
     fn measure_radii(&mut self) {
         let triangles = &self.triangles;
-        self.nodes.par_iter_mut().for_each(|node| {
+        for node in &mut self.nodes {
             let tris = &triangles[node.start as usize..node.end as usize];
             node.radius = tris
                 .iter()
@@ -82,7 +83,7 @@ impl Winding {
                 .map(|p| p.distance_squared(node.centre))
                 .fold(0.0, f64::max)
                 .sqrt();
-        });
+        }
     }
 
     /// Fills in the centre, areas and moment of node `n` and its descendants, children first: a leaf from its triangles (each at its centroid), an inner
