@@ -414,6 +414,18 @@ fn ply_bad_inputs_name_the_file_and_place() {
     let place = format!("byte {}", header_bytes + 8 * 16 + 2 * 18);
     let m = read_err("cut.ply", &bytes[..cut], Some(&place));
     assert!(m.contains("truncated") && m.contains("face 2 of 6"), "{m}");
+    // A negative list length (a char count of -1) and a floating-point one, in the first face.
+    let bytes =
+        ply("binary_little_endian", Num::Float, Num::Char, Num::Int, &vertices, &box_faces());
+    let header_bytes = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+    let mut negative = bytes.clone();
+    negative[header_bytes + 8 * 16] = 0xff;
+    let place = format!("byte {}", header_bytes + 8 * 16);
+    let m = read_err("bad.ply", &negative, Some(&place));
+    assert!(m.contains("face 0 of 6") && m.contains("negative"), "{m}");
+    let bytes = ply("binary_big_endian", Num::Float, Num::Float, Num::Int, &vertices, &box_faces());
+    let m = read_err("bad.ply", &bytes, None);
+    assert!(m.contains("face 0 of 6") && m.contains("floating-point"), "{m}");
     let text = ascii(&box_faces(), &vertices);
     let cut = text.len() - 30;
     let m = read_err("cut.ply", &text[..cut], None);

@@ -1,8 +1,11 @@
 //! Stanford PLY: ASCII, binary little endian and binary big endian.
 //!
-//! Built on `ply-rs-bw`: its parser reads the header and decodes one element at a time, and
-//! this module drives it element by element so that every error carries its place in the file
-//! (the line for ASCII, the byte offset where the element starts for binary). What it accepts:
+//! Built on `ply-rs-bw`: its parser reads the header and decodes ASCII elements one at a time;
+//! binary elements are decoded here straight from the header's property types (the parser
+//! hands every property of every element over by name, which took most of the time of reading
+//! a mesh of millions of triangles). The file is read element by element so that every error
+//! carries its place in the file (the line for ASCII, the byte offset where the element starts
+//! for binary). What it accepts:
 //! - a `vertex` element with scalar `x`, `y` and `z` properties of any numeric type (float and
 //!   double are usual), read as f64; other vertex properties (normals, colours) are ignored;
 //! - a `face` element with a `vertex_indices` (or `vertex_index`) list of any integer type
@@ -113,8 +116,10 @@ pub(super) fn read(bytes: &[u8], path: &Path) -> Result<(Mesh, ReadReport)> {
     // An element without properties takes no bytes (and, in ASCII, blank lines, which are
     // skipped anyway): skip it rather than count through however many the header claims.
     for (name, def) in header.elements.iter().filter(|(_, d)| !d.properties.is_empty()) {
+        let layout = Layout::new(name, def);
+        let mut element = Element::default();
         for i in 0..def.count {
-            let (element, at) = payload.next(def).map_err(|(at, message)| {
+            let at = payload.next(def, &layout, &mut element).map_err(|(at, message)| {
                 mesh.error(at, format!("{name} {i} of {}: {message}", def.count))
             })?;
             match name.as_str() {
@@ -237,32 +242,30 @@ struct Payload<'a> {
 }
 
 impl Payload<'_> {
-    /// Reads the next element of type `def` and says where it starts; an error says where
-    /// and what.
+    /// Reads the next element of type `def` (whose properties `layout` describes) into
+    /// `element` and says where it starts; an error says where and what.
     fn next(
         &mut self,
         def: &ElementDef,
-    ) -> std::result::Result<(Element, Location), (Location, String)> {
+        layout: &Layout,
+        element: &mut Element,
+    ) -> std::result::Result<Location, (Location, String)> {
         if self.encoding == Encoding::Ascii {
-            return self.next_ascii(def);
+            let (read, at) = self.next_ascii(def)?;
+            *element = read;
+            return Ok(at);
         }
         let at = Location::Byte((self.file.len() - self.rest.len()) as u64);
-        let read = match self.encoding {
-            Encoding::BinaryBigEndian => self.parser.read_big_endian_element(&mut self.rest, def),
-            _ => self.parser.read_little_endian_element(&mut self.rest, def),
-        };
-        read.map(|e| (e, at)).map_err(|e| {
-            if e.kind() == io::ErrorKind::UnexpectedEof {
-                (
-                    at,
-                    format!(
-                        "truncated: the file ends at byte {} inside this element",
-                        self.file.len()
-                    ),
-                )
-            } else {
-                (at, one_line(&e.to_string()))
-            }
+        let big_endian = self.encoding == Encoding::BinaryBigEndian;
+        layout.read(&mut self.rest, big_endian, element).map(|()| at).map_err(|e| {
+            let message = match e {
+                BinaryError::Truncated => format!(
+                    "truncated: the file ends at byte {} inside this element",
+                    self.file.len()
+                ),
+                BinaryError::Invalid(message) => message.to_string(),
+            };
+            (at, message)
         })
     }
 
@@ -295,6 +298,137 @@ impl Payload<'_> {
                 .map_err(|e| (at, one_line(&e.to_string())));
         }
     }
+}
+
+/// What one property of an element gives the mesh.
+#[derive(Clone, Copy)]
+enum Role {
+    /// A vertex coordinate: x, y or z.
+    Axis(usize),
+    /// A face's corners.
+    Corners,
+    Ignored,
+}
+
+/// An element's properties in the file's order, with what each gives the mesh: what
+/// decoding a binary element needs.
+struct Layout {
+    properties: Vec<(PropertyType, Role)>,
+}
+
+/// Why a binary element could not be decoded.
+enum BinaryError {
+    /// The file ends inside it.
+    Truncated,
+    Invalid(&'static str),
+}
+
+impl Layout {
+    /// The layout of the element `name` declared as `def`.
+    fn new(name: &str, def: &ElementDef) -> Layout {
+        let role = |property: &str| match (name, property) {
+            ("vertex", "x") => Role::Axis(0),
+            ("vertex", "y") => Role::Axis(1),
+            ("vertex", "z") => Role::Axis(2),
+            ("face", p) if INDEX_LISTS.contains(&p) => Role::Corners,
+            _ => Role::Ignored,
+        };
+        let properties =
+            def.properties.iter().map(|(p, d)| (d.data_type.clone(), role(p))).collect();
+        Layout { properties }
+    }
+
+    /// Decodes one binary element from the front of `rest` into `element`, and moves `rest`
+    /// past it.
+    fn read(
+        &self,
+        rest: &mut &[u8],
+        big_endian: bool,
+        element: &mut Element,
+    ) -> std::result::Result<(), BinaryError> {
+        for (data_type, role) in &self.properties {
+            match (data_type, *role) {
+                (PropertyType::Scalar(t), Role::Axis(axis)) => {
+                    element.position[axis] = scalar(rest, t, big_endian)?;
+                }
+                (PropertyType::Scalar(t), _) => {
+                    take(rest, scalar_bytes(t))?;
+                }
+                (PropertyType::List(count, t), role) => {
+                    let count = list_length(rest, count, big_endian)?;
+                    if let Role::Corners = role {
+                        element.indices.clear();
+                        for _ in 0..count {
+                            // Every integer type holds values f64 represents exactly.
+                            element.indices.push(scalar(rest, t, big_endian)? as i64);
+                        }
+                    } else {
+                        let bytes = count.checked_mul(scalar_bytes(t));
+                        take(rest, bytes.ok_or(BinaryError::Truncated)?)?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The size of a binary scalar of type `t`.
+fn scalar_bytes(t: &ScalarType) -> usize {
+    match *t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    }
+}
+
+/// The first `n` bytes of `rest`, which moves past them.
+fn take<'a>(rest: &mut &'a [u8], n: usize) -> std::result::Result<&'a [u8], BinaryError> {
+    let (head, tail) = rest.split_at_checked(n).ok_or(BinaryError::Truncated)?;
+    *rest = tail;
+    Ok(head)
+}
+
+/// A binary scalar of type `t`, as f64 (exact for every type but double-to-double).
+fn scalar(
+    rest: &mut &[u8],
+    t: &ScalarType,
+    big_endian: bool,
+) -> std::result::Result<f64, BinaryError> {
+    let size = scalar_bytes(t);
+    let mut b = [0u8; 8];
+    b[..size].copy_from_slice(take(rest, size)?);
+    if big_endian {
+        b[..size].reverse();
+    }
+    let [b0, b1, b2, b3, ..] = b;
+    Ok(match *t {
+        ScalarType::Char => f64::from(i8::from_le_bytes([b0])),
+        ScalarType::UChar => f64::from(b0),
+        ScalarType::Short => f64::from(i16::from_le_bytes([b0, b1])),
+        ScalarType::UShort => f64::from(u16::from_le_bytes([b0, b1])),
+        ScalarType::Int => f64::from(i32::from_le_bytes([b0, b1, b2, b3])),
+        ScalarType::UInt => f64::from(u32::from_le_bytes([b0, b1, b2, b3])),
+        ScalarType::Float => f64::from(f32::from_le_bytes([b0, b1, b2, b3])),
+        ScalarType::Double => f64::from_le_bytes(b),
+    })
+}
+
+/// A binary list's length, read as its count type `t`.
+fn list_length(
+    rest: &mut &[u8],
+    t: &ScalarType,
+    big_endian: bool,
+) -> std::result::Result<usize, BinaryError> {
+    if matches!(*t, ScalarType::Float | ScalarType::Double) {
+        return Err(BinaryError::Invalid("a list's length is declared as a floating-point type"));
+    }
+    let length = scalar(rest, t, big_endian)?;
+    if length < 0.0 {
+        return Err(BinaryError::Invalid("a list's length is negative"));
+    }
+    Ok(length as usize)
 }
 
 /// One vertex or triangle to write.
