@@ -283,9 +283,9 @@ fn crossing(a: f64, b: f64) -> f64 {
 pub fn sample(sd: &Volume<f32>, p: DVec3) -> f32 {
     let (corners, w) = cell(sd, p);
     let mut value = 0.0;
+    let factors = w.map(|w| [1.0 - w, w]);
     for (c, &index) in corners.iter().enumerate() {
-        let weight =
-            (0..3).map(|a| if c >> a & 1 == 1 { w[a] } else { 1.0 - w[a] }).product::<f64>();
+        let weight = factors[0][c & 1] * factors[1][c >> 1 & 1] * factors[2][c >> 2 & 1];
         if weight != 0.0 {
             value += weight * f64::from(sd.data[index]);
         }
@@ -323,7 +323,8 @@ fn cell(volume: &Volume<f32>, p: DVec3) -> ([usize; 8], [f64; 3]) {
     for axis in 0..3 {
         let max = grid.dims[axis].saturating_sub(1);
         let x = if p[axis].is_nan() { 0.0 } else { p[axis].clamp(0.0, max as f64) };
-        lo[axis] = (x.floor() as usize).min(max);
+        // x >= 0, so truncation is its floor (and needs no libm call on the baseline ISA).
+        lo[axis] = (x as usize).min(max);
         hi[axis] = (lo[axis] + 1).min(max);
         w[axis] = x - lo[axis] as f64;
     }

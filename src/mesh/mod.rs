@@ -67,7 +67,13 @@ impl Mesh {
     /// The bounding box of the vertices that some triangle uses, or `None` for a mesh with no
     /// triangles.
     pub fn bounds(&self) -> Option<Aabb> {
-        Aabb::of_points(self.triangles.iter().flatten().map(|&i| &self.vertices[i as usize]))
+        // The used vertices marked first, then boxed in order: reading every triangle's
+        // corners from the vertices would jump about memory millions of times on large meshes.
+        let mut used = vec![false; self.vertices.len()];
+        for &i in self.triangles.iter().flatten() {
+            used[i as usize] = true;
+        }
+        Aabb::of_points(self.vertices.iter().zip(used).filter_map(|(v, used)| used.then_some(v)))
     }
 
     /// The three corners of triangle `t`.
