@@ -106,14 +106,19 @@ fn sweep(states: &[bool], d2: &mut [f32], nx: usize, plane: usize, forward: bool
 
 /// Scratch space for the 1D lower envelope of parabolas along one line (Felzenszwalb and
 /// Huttenlocher), run once for the inside voxels and once for the outside ones.
+///
+/// Every height is a whole number (squared distances between voxels), so the envelope's
+/// breakpoints are kept as fractions and compared by cross-multiplication, exactly and without
+/// a division (whole numbers below 2^53 multiply exactly in f64).
 struct Line {
     f: Vec<f64>,
     state: Vec<bool>,
-    /// The envelope's parabolas: their voxels, their heights `f(p) + p^2` and the boundaries
-    /// between them.
+    /// The envelope's parabolas: their voxels, their heights `f(p) + p^2`, and where each
+    /// begins, `z[k] = z_num[k] / z_den[k]` (`z_den > 0`), from the second on.
     v: Vec<usize>,
     h: Vec<f64>,
-    z: Vec<f64>,
+    z_num: Vec<f64>,
+    z_den: Vec<f64>,
 }
 
 impl Line {
@@ -123,7 +128,8 @@ impl Line {
             state: vec![false; n],
             v: vec![0; n],
             h: vec![0.0; n],
-            z: vec![0.0; n + 1],
+            z_num: vec![0.0; n],
+            z_den: vec![1.0; n],
         }
     }
 
@@ -154,7 +160,8 @@ impl Line {
                     set(q, f32::INFINITY);
                     continue;
                 }
-                while self.z[k + 1] < q as f64 {
+                // Parabola k + 1 takes over once q is past where it begins.
+                while k + 1 < parabolas && self.z_num[k + 1] < q as f64 * self.z_den[k + 1] {
                     k += 1;
                 }
                 let dq = q as f64 - self.v[k] as f64;
@@ -166,7 +173,6 @@ impl Line {
     /// Builds the lower envelope of the parabolas `(x - p)^2 + f(p)` over the voxels `p` of the
     /// line with `f(p)` taken as 0 for voxels not of `side`, and returns how many it has.
     fn envelope(&mut self, side: bool) -> usize {
-        let mut k = 0usize;
         let mut count = 0usize;
         for q in 0..self.f.len() {
             let fq = if self.state[q] == side { self.f[q] } else { 0.0 };
@@ -174,20 +180,23 @@ impl Line {
                 continue;
             }
             let hq = fq + (q * q) as f64;
-            if count == 0 {
-                (self.v[0], self.h[0], self.z[0], self.z[1]) =
-                    (q, hq, f64::NEG_INFINITY, f64::INFINITY);
-                count = 1;
-                continue;
+            // Drop the parabolas the new one lies below from where they begin: it meets
+            // parabola k at s = (hq - h[k]) / (2 (q - v[k])).
+            while count > 1 {
+                let k = count - 1;
+                let (num, den) = (hq - self.h[k], 2.0 * (q - self.v[k]) as f64);
+                if num * self.z_den[k] > self.z_num[k] * den {
+                    break;
+                }
+                count -= 1;
             }
-            let mut s = (hq - self.h[k]) / (2 * (q - self.v[k])) as f64;
-            while s <= self.z[k] {
-                k -= 1;
-                s = (hq - self.h[k]) / (2 * (q - self.v[k])) as f64;
+            if count > 0 {
+                let k = count - 1;
+                (self.z_num[count], self.z_den[count]) =
+                    (hq - self.h[k], 2.0 * (q - self.v[k]) as f64);
             }
-            k += 1;
-            (self.v[k], self.h[k], self.z[k], self.z[k + 1]) = (q, hq, s, f64::INFINITY);
-            count = k + 1;
+            (self.v[count], self.h[count]) = (q, hq);
+            count += 1;
         }
         count
     }
