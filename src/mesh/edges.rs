@@ -67,11 +67,18 @@ impl Edges {
 
     /// The edges not used exactly twice (a triangle with a repeated corner uses one edge twice).
     pub(crate) fn open(&self) -> usize {
-        self.groups().filter(|group| group.len() != 2).count()
+        self.par_groups().filter(|group| group.len() != 2).count()
     }
 
     /// The uses of each edge, one slice an edge.
     pub(crate) fn groups(&self) -> impl Iterator<Item = &[(u32, u32, bool)]> {
         self.start.windows(2).flat_map(|w| self.uses[w[0]..w[1]].chunk_by(|x, y| x.0 == y.0))
+    }
+
+    /// [`Edges::groups`], in parallel.
+    pub(crate) fn par_groups(&self) -> impl ParallelIterator<Item = &[(u32, u32, bool)]> {
+        self.start
+            .par_windows(2)
+            .flat_map_iter(|w| self.uses[w[0]..w[1]].chunk_by(|x, y| x.0 == y.0))
     }
 }

@@ -88,7 +88,7 @@ fn manifold_neighbours(edges: &Edges, triangles: usize) -> Vec<[(u32, bool); 3]>
 /// Whether, with the triangles flipped as `flip` says, every edge is traversed as often in
 /// each direction.
 fn balanced(edges: &Edges, flip: &[bool]) -> bool {
-    edges.groups().all(|group| {
+    edges.par_groups().all(|group| {
         let forward = group.iter().filter(|&&(_, t, up)| up ^ flip[t as usize]).count();
         2 * forward == group.len()
     })
