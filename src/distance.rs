@@ -7,6 +7,9 @@
 //! SciPy's `distance_transform_edt` with the convention
 //! `sd = where(inside, edt(inside) - 0.5, -(edt(~inside) - 0.5))`: positive inside, negative
 //! outside, in voxels, so voxels on either side of the surface are ±1/2.
+//! [`signed_distance_within`] is the same transform exact only within a band around the
+//! surface (what the fit reads of its current surface's), which skips most of the work on
+//! large grids.
 //!
 //! Positions are continuous voxel coordinates of the volume's grid (voxel centres at whole
 //! numbers), f64; the volumes themselves are f32, whose 24-bit mantissa holds every squared
@@ -28,6 +31,25 @@ pub fn inside(density: &Volume<f32>) -> Volume<bool> {
 ///
 /// A volume with no voxel of the other state gets +∞ (all inside) or -∞ (all outside).
 pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
+    transform(inside, f64::INFINITY)
+}
+
+/// [`signed_distance`] within a band around the surface: every voxel less than `band` voxels
+/// from the nearest voxel of the other state gets its exact value (below `band - 1/2` in size);
+/// every other voxel gets `band - 1/2` with its sign, a lower bound on its size. `band` is
+/// taken as at least 1.
+///
+/// The transform is the same, with the parabolas of squared distances of at least `band^2`
+/// left out of the second and third passes: none of them can be the nearest for a voxel
+/// nearer than `band`, and where the band is thin beside the grid most lines have few of the
+/// others.
+pub fn signed_distance_within(inside: &Volume<bool>, band: f32) -> Volume<f32> {
+    transform(inside, f64::from(band.max(1.0)))
+}
+
+/// The transform of [`signed_distance`], exact for voxels nearer than `band` to the other
+/// state (all of them when `band` is infinite).
+fn transform(inside: &Volume<bool>, band: f64) -> Volume<f32> {
     let grid = inside.grid;
     let [nx, ny, nz] = grid.dims;
     let states = &inside.data;
@@ -35,29 +57,34 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
     if grid.is_empty() {
         return Volume { grid, data: d2 };
     }
+    let cutoff = band * band;
     // Along i first: the 1D distances need only the states, swept slab by slab.
     axis_i_distances(states, &mut d2, nx, ny * nz);
     // Along j: within each i-slab.
     d2.par_chunks_mut(ny * nz).zip(states.par_chunks(ny * nz)).for_each_init(
-        || Line::new(ny),
+        || Line::new(ny, cutoff),
         |line, (slab, state)| {
             for k in 0..nz {
-                line.load(|j| (state[j * nz + k], slab[j * nz + k]));
-                line.solve(|j, d| slab[j * nz + k] = d);
+                if line.load(|j| (state[j * nz + k], slab[j * nz + k])) {
+                    line.solve(|j, d| slab[j * nz + k] = d);
+                }
             }
         },
     );
     // Along k: rows are contiguous.
     d2.par_chunks_mut(nz).zip(states.par_chunks(nz)).for_each_init(
-        || Line::new(nz),
+        || Line::new(nz, cutoff),
         |line, (row, state)| {
-            line.load(|k| (state[k], row[k]));
-            line.solve(|k, d| row[k] = d);
+            if line.load(|k| (state[k], row[k])) {
+                line.solve(|k, d| row[k] = d);
+            }
         },
     );
     d2.par_iter_mut().zip(states.par_iter()).for_each(|(d, &inside)| {
-        // In f64 then rounded once, as SciPy's float64 result cast to float32.
-        let r = f64::from(*d).sqrt() - 0.5;
+        // In f64 then rounded once, as SciPy's float64 result cast to float32. (With an
+        // infinite band, an infinite squared distance gives an infinite result either way.)
+        let squared = f64::from(*d);
+        let r = if squared >= cutoff { band } else { squared.sqrt() } - 0.5;
         *d = if inside { r as f32 } else { -r as f32 };
     });
     Volume { grid, data: d2 }
@@ -111,6 +138,8 @@ fn sweep(states: &[bool], d2: &mut [f32], nx: usize, plane: usize, forward: bool
 /// breakpoints are kept as fractions and compared by cross-multiplication, exactly and without
 /// a division (whole numbers below 2^53 multiply exactly in f64).
 struct Line {
+    /// Squared distances from here on are left out of the envelope (see [`transform`]).
+    cutoff: f64,
     f: Vec<f64>,
     state: Vec<bool>,
     /// The envelope's parabolas: their voxels, their heights `f(p) + p^2`, and where each
@@ -122,8 +151,9 @@ struct Line {
 }
 
 impl Line {
-    fn new(n: usize) -> Line {
+    fn new(n: usize, cutoff: f64) -> Line {
         Line {
+            cutoff,
             f: vec![0.0; n],
             state: vec![false; n],
             v: vec![0; n],
@@ -133,13 +163,18 @@ impl Line {
         }
     }
 
-    /// Reads each voxel's state and squared distance so far with `get`.
-    fn load(&mut self, get: impl Fn(usize) -> (bool, f32)) {
+    /// Reads each voxel's state and squared distance so far with `get`, and says whether the
+    /// line needs solving: not when all its voxels share a state and are at least the cutoff
+    /// away already, so that no voxel of it can come nearer.
+    fn load(&mut self, get: impl Fn(usize) -> (bool, f32)) -> bool {
+        let mut needed = false;
         for q in 0..self.f.len() {
             let (s, d) = get(q);
             self.state[q] = s;
             self.f[q] = f64::from(d);
+            needed |= s != self.state[0] || self.f[q] < self.cutoff;
         }
+        needed
     }
 
     /// Writes with `set` each voxel's squared distance to the nearest voxel of the other
@@ -171,12 +206,24 @@ impl Line {
     }
 
     /// Builds the lower envelope of the parabolas `(x - p)^2 + f(p)` over the voxels `p` of the
-    /// line with `f(p)` taken as 0 for voxels not of `side`, and returns how many it has.
+    /// line with `f(p)` taken as 0 for voxels not of `side` (only those beside a voxel of `side`
+    /// can be lowest anywhere on it), and returns how many it has.
     fn envelope(&mut self, side: bool) -> usize {
+        let n = self.f.len();
         let mut count = 0usize;
-        for q in 0..self.f.len() {
-            let fq = if self.state[q] == side { self.f[q] } else { 0.0 };
-            if fq == f64::INFINITY {
+        for q in 0..n {
+            let fq = if self.state[q] == side {
+                self.f[q]
+            } else if (q > 0 && self.state[q - 1] == side)
+                || (q + 1 < n && self.state[q + 1] == side)
+            {
+                0.0
+            } else {
+                // Inside a run of the other state: the run's ends are nearer every voxel of
+                // `side` on the line.
+                continue;
+            };
+            if fq >= self.cutoff {
                 continue;
             }
             let hq = fq + (q * q) as f64;

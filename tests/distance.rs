@@ -2,7 +2,8 @@
 //! surface points, interpolation and gradients.
 
 use implicitize::distance::{
-    boundary_voxels, gradient, inside, sample, signed_distance, surface_point,
+    boundary_voxels, gradient, inside, sample, signed_distance, signed_distance_within,
+    surface_point,
 };
 use implicitize::{DVec3, Grid, Volume};
 use proptest::prelude::*;
@@ -45,6 +46,37 @@ proptest! {
         }).collect();
         let v = Volume { grid: g, data };
         prop_assert_eq!(signed_distance(&v).data, brute_force(&v));
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(100))]
+    /// Within the band, the exact values; beyond it `band - 1/2` with the sign, below the true
+    /// size. A few balls in a larger grid, so that lines cross the band, miss it and lie in it.
+    #[test]
+    fn the_banded_transform_is_exact_within_its_band(
+        nx in 1usize..24, ny in 1usize..24, nz in 1usize..24,
+        balls in proptest::collection::vec((0.0f64..1.0, 0.0f64..1.0, 0.0f64..1.0, 0.5f64..5.0), 0..4),
+        band in 1.0f32..8.0,
+    ) {
+        let g = grid([nx, ny, nz]);
+        let data = (0..g.len()).map(|i| {
+            let p = g.voxel(i);
+            balls.iter().any(|&(x, y, z, r)| {
+                let c = [x * nx as f64, y * ny as f64, z * nz as f64];
+                (0..3).map(|a| (p[a] as f64 - c[a]).powi(2)).sum::<f64>() <= r * r
+            })
+        }).collect();
+        let v = Volume { grid: g, data };
+        let exact = brute_force(&v);
+        let banded = signed_distance_within(&v, band).data;
+        for (i, (&e, &b)) in exact.iter().zip(&banded).enumerate() {
+            if e.abs() < band - 0.5 {
+                prop_assert_eq!(b, e, "voxel {:?}", g.voxel(i));
+            } else {
+                prop_assert_eq!(b, (band - 0.5).copysign(e), "voxel {:?}, exact {}", g.voxel(i), e);
+            }
+        }
     }
 }
 

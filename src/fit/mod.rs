@@ -393,7 +393,7 @@ fn measure(
     timings.implicit_evaluation += clock.elapsed().as_secs_f64();
 
     let clock = Instant::now();
-    let sd_current = current_signed_distance(&values);
+    let sd_current = current_signed_distance(&values, goal, &options.regularity);
     timings.signed_distance += clock.elapsed().as_secs_f64();
 
     let clock = Instant::now();
@@ -456,10 +456,32 @@ fn current_regularity(
     }
 }
 
-/// sd_curr: the signed distance of the voxels where the implicit function is positive.
-fn current_signed_distance(values: &Volume<f32>) -> Volume<f32> {
+/// sd_curr: the signed distance of the voxels where the implicit function is positive, exact
+/// wherever the measurement reads it.
+///
+/// That is near the current surface, and at the goal's boundary voxels and around them. Near
+/// the current surface, the walks of the radii of regularity read it at most `max_radius`
+/// (plus one step of at most √3) from a boundary voxel, one voxel further for the neighbours
+/// they compare, and a boundary voxel is within 1/2 of the other state: so the transform is
+/// taken within a band `max_radius + tolerance + 6` voxels wide (at least 4 beyond the
+/// farthest read), which on large grids leaves most of the volume out. If a goal boundary voxel
+/// is within 4 voxels of the band's edge (the current surface is far from part of the goal, as
+/// in the first iterations), the trilinear samples around it could read clamped values, and the
+/// whole transform is taken instead.
+fn current_signed_distance(
+    values: &Volume<f32>,
+    goal: &Goal,
+    regularity: &RegularityOptions,
+) -> Volume<f32> {
     let inside = Volume { grid: values.grid, data: values.data.iter().map(|&v| v > 0.0).collect() };
-    distance::signed_distance(&inside)
+    let band = (regularity.max_radius + regularity.tolerance + 6.0) as f32;
+    let banded = distance::signed_distance_within(&inside, band);
+    let reach = band - 0.5 - 4.0;
+    if goal.boundary.par_iter().all(|&v| banded.get(v).abs() < reach) {
+        banded
+    } else {
+        distance::signed_distance(&inside)
+    }
 }
 
 /// Solves for the implicit function through `constraints`, in mesh units, started from
