@@ -84,11 +84,12 @@ pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
     Ok((values, columns))
 }
 
-/// Refuses a header longer than [`MAX_HEADER`], nested deeper than [`MAX_HEADER_NESTING`], or
-/// with a shape whose entries are not whole numbers or whose non-zero entries multiply past
-/// 2^64, before npyz parses it. Found by fuzzing: npyz's parser takes time exponential in the depth of unclosed
-/// brackets (a 200-byte header of 30 `[` ran for minutes), and it multiplies the shape's
-/// entries unchecked (an overflow, a panic where overflow checks are on). The arrays read here
+/// Refuses a header longer than [`MAX_HEADER`], nested deeper than [`MAX_HEADER_NESTING`],
+/// holding a backslash, or with a shape whose entries are not whole numbers or whose non-zero
+/// entries multiply past 2^64, before npyz parses it. Found by fuzzing: npyz's parser takes
+/// time exponential in the depth of unclosed brackets (a 200-byte header of 30 `[` ran for
+/// minutes), and it multiplies the shape's entries unchecked (an overflow, a panic where
+/// overflow checks are on). The arrays read here
 /// have a plain dtype, so no valid header of theirs nests deeper. Bytes too short to hold a
 /// header are left to npyz's own error.
 fn check_header(bytes: &[u8], path: &Path) -> Result<()> {
@@ -117,6 +118,11 @@ fn check_header(bytes: &[u8], path: &Path) -> Result<()> {
                  dictionary holding the shape's tuple)"
             ));
         }
+    }
+    // An escape or a line continuation could spell a key (`'sha\x70e'`) that the shape check
+    // below, a search of the text, would not see; NumPy writes neither.
+    if header.contains(&b'\\') {
+        return refuse("a backslash (an escape NumPy never writes in a header)".into());
     }
     check_shapes(&String::from_utf8_lossy(header)).or_else(refuse)
 }
@@ -203,6 +209,17 @@ mod tests {
             let error = read_rows_bytes(&file(&header), Path::new("p.npy")).unwrap_err();
             assert!(error.to_string().contains("more elements than 2^64"), "{shape}: {error}");
         }
+    }
+
+    /// The shape's key spelled with an escape (read by npyz as `shape`), holding a shape that
+    /// overflows: the text search for `shape` would miss it, so any backslash is refused.
+    #[test]
+    fn escapes_in_the_header_are_refused() {
+        let header = "{'descr': '<f8', 'fortran_order': False, \
+                      'sha\\x70e': (4000000000, 9000000000000, 3), }";
+        assert!(header.contains(r"'sha\x70e'"));
+        let error = read_rows_bytes(&file(header), Path::new("p.npy")).unwrap_err().to_string();
+        assert!(error.contains("p.npy") && error.contains("backslash"), "{error}");
     }
 
     #[test]
