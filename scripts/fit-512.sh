@@ -59,7 +59,7 @@ for line in report["per_iteration"]:
 PY
 done
 
-if [[ -f $out/bunny.json ]]; then
-  ./target/release/implicitize render "$out/bunny.json" --compare ../shared/models/bunny.obj \
+if [[ " ${models[*]} " == *" bunny "* ]]; then
+  ./target/release/implicitize render "$out/bunny.json" --compare "$(ls ../shared/models/bunny.* | head -1)" \
     --size 560 480 --view 25 15 -o docs/images/bunny-512-compare.png --quiet
 fi

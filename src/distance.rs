@@ -136,7 +136,7 @@ fn sweep(states: &[bool], d2: &mut [f32], nx: usize, plane: usize, forward: bool
 ///
 /// Every height is a whole number (squared distances between voxels), so the envelope's
 /// breakpoints are kept as fractions and compared by cross-multiplication, exactly and without
-/// a division (whole numbers below 2^53 multiply exactly in f64).
+/// a division (their products stay far below 2^53, where f64 holds whole numbers exactly).
 struct Line {
     /// Squared distances from here on are left out of the envelope (see [`transform`]).
     cutoff: f64,
@@ -207,7 +207,7 @@ impl Line {
 
     /// Builds the lower envelope of the parabolas `(x - p)^2 + f(p)` over the voxels `p` of the
     /// line with `f(p)` taken as 0 for voxels not of `side` (only those beside a voxel of `side`
-    /// can be lowest anywhere on it), and returns how many it has.
+    /// can be lowest at a voxel of `side`), and returns how many it has.
     fn envelope(&mut self, side: bool) -> usize {
         let n = self.f.len();
         let mut count = 0usize;

@@ -423,9 +423,21 @@ fn ply_bad_inputs_name_the_file_and_place() {
     let place = format!("byte {}", header_bytes + 8 * 16);
     let m = read_err("bad.ply", &negative, Some(&place));
     assert!(m.contains("face 0 of 6") && m.contains("negative"), "{m}");
-    let bytes = ply("binary_big_endian", Num::Float, Num::Float, Num::Int, &vertices, &box_faces());
-    let m = read_err("bad.ply", &bytes, None);
-    assert!(m.contains("face 0 of 6") && m.contains("floating-point"), "{m}");
+    // A floating-point length type is refused by the header check, in either encoding, and so
+    // is a floating-point index list under either name beside an integer one.
+    for encoding in ["binary_big_endian", "ascii"] {
+        let bytes = ply(encoding, Num::Float, Num::Float, Num::Int, &vertices, &box_faces());
+        let m = read_err("bad.ply", &bytes, None);
+        assert!(m.contains("length is declared floating-point"), "{encoding}: {m}");
+    }
+    let text = String::from_utf8(ascii(&box_faces(), &vertices)).unwrap();
+    let both = text.replace(
+        "property uchar flags\n",
+        "property uchar flags\nproperty list uchar float vertex_index\n",
+    );
+    assert_ne!(both, text);
+    let m = read_err("bad.ply", both.as_bytes(), None);
+    assert!(m.contains("'vertex_index' list holds floating-point"), "{m}");
     let text = ascii(&box_faces(), &vertices);
     let cut = text.len() - 30;
     let m = read_err("cut.ply", &text[..cut], None);

@@ -462,7 +462,7 @@ fn current_regularity(
 /// That is near the current surface, and at the goal's boundary voxels and around them. Near
 /// the current surface, the walks of the radii of regularity read it at most `max_radius`
 /// (plus one step of at most √3) from a boundary voxel, one voxel further for the neighbours
-/// they compare, and a boundary voxel is within 1/2 of the other state: so the transform is
+/// they compare, and a boundary voxel is next to one of the other state: so the transform is
 /// taken within a band `max_radius + tolerance + 6` voxels wide (at least 4 beyond the
 /// farthest read), which on large grids leaves most of the volume out. If a goal boundary voxel
 /// is within 4 voxels of the band's edge (the current surface is far from part of the goal, as
@@ -474,7 +474,9 @@ fn current_signed_distance(
     regularity: &RegularityOptions,
 ) -> Volume<f32> {
     let inside = Volume { grid: values.grid, data: values.data.iter().map(|&v| v > 0.0).collect() };
-    let band = (regularity.max_radius + regularity.tolerance + 6.0) as f32;
+    let band = (regularity.max_radius + regularity.tolerance.max(0.0) + 6.0) as f32;
+    // In the first iterations the check below usually fails and this band is thrown away: a
+    // fraction of the cost of the whole transform, on grids where iterations are cheap.
     let banded = distance::signed_distance_within(&inside, band);
     let reach = band - 0.5 - 4.0;
     if goal.boundary.par_iter().all(|&v| banded.get(v).abs() < reach) {

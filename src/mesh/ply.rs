@@ -57,12 +57,14 @@ impl PropertyAccess for Element {
             _ if INDEX_LISTS.contains(&name) => return self.set_indices(property),
             _ => return PropertyAccessResult::Ignored,
         };
+        // The header check made sure the vertex element's coordinates are numbers; a list of
+        // that name in another element is not read, as in binary.
         match as_number(&property) {
             Some(value) => {
                 self.position[axis] = value;
                 PropertyAccessResult::Set
             }
-            None => PropertyAccessResult::UnsupportedType,
+            None => PropertyAccessResult::Ignored,
         }
     }
 }
@@ -79,7 +81,9 @@ impl Element {
             Property::ListUShort(l) => widen(l),
             Property::ListInt(l) => widen(l),
             Property::ListUInt(l) => widen(l),
-            _ => return PropertyAccessResult::UnsupportedType,
+            // The header check made sure the face element's index lists hold integers; a
+            // property of that name in another element is not read, as in binary.
+            _ => return PropertyAccessResult::Ignored,
         };
         PropertyAccessResult::Set
     }
@@ -157,16 +161,35 @@ fn check_header(header: &Header, path: &Path) -> Result<usize> {
         }
     }
     if let Some(face) = header.elements.get("face") {
-        let list = INDEX_LISTS.iter().find_map(|n| face.properties.get(*n));
-        match list.map(|p| &p.data_type) {
-            Some(PropertyType::List(_, ScalarType::Float | ScalarType::Double)) => {
-                return Err(error("the face index list holds floating-point numbers".into()));
+        let lists: Vec<_> = INDEX_LISTS.iter().filter_map(|n| face.properties.get(*n)).collect();
+        for list in &lists {
+            match &list.data_type {
+                PropertyType::List(_, ScalarType::Float | ScalarType::Double) => {
+                    return Err(error(format!(
+                        "the face's '{}' list holds floating-point numbers",
+                        list.name
+                    )));
+                }
+                PropertyType::List(..) => {}
+                PropertyType::Scalar(_) => {
+                    return Err(error(format!("face property '{}' is not a list", list.name)));
+                }
             }
-            Some(PropertyType::List(..)) => {}
-            _ => {
-                return Err(error(
-                    "the face element has no 'vertex_indices' list of integers".into(),
-                ));
+        }
+        if lists.is_empty() {
+            return Err(error("the face element has no 'vertex_indices' list of integers".into()));
+        }
+    }
+    // A list's length is a whole number: the binary reader takes it as one of the integer types.
+    for (name, element) in &header.elements {
+        for property in element.properties.values() {
+            if let PropertyType::List(ScalarType::Float | ScalarType::Double, _) =
+                property.data_type
+            {
+                return Err(error(format!(
+                    "{name} property '{}': a list's length is declared floating-point",
+                    property.name
+                )));
             }
         }
     }
@@ -421,9 +444,7 @@ fn list_length(
     t: &ScalarType,
     big_endian: bool,
 ) -> std::result::Result<usize, BinaryError> {
-    if matches!(*t, ScalarType::Float | ScalarType::Double) {
-        return Err(BinaryError::Invalid("a list's length is declared as a floating-point type"));
-    }
+    // Integer types only: the header check refuses floating-point lengths.
     let length = scalar(rest, t, big_endian)?;
     if length < 0.0 {
         return Err(BinaryError::Invalid("a list's length is negative"));
