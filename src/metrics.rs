@@ -198,16 +198,17 @@ pub struct BoundaryErrors {
 impl BoundaryErrors {
     /// Errors at `voxels` (boundary voxels of a shape whose radii are `rreg` and whose surface
     /// passes through `points`) against the other shape, seen through its voxel signed distance
-    /// `other` and its sub-voxel signed distance `other_fine`.
+    /// `other` and its sub-voxel signed distance `other_fine` (voxels, inside positive, at a
+    /// point in continuous voxel coordinates).
     pub fn new(
         voxels: Vec<[usize; 3]>,
         rreg: Vec<f32>,
         points: Vec<DVec3>,
         other: &Volume<f32>,
-        other_fine: &SubVoxel,
+        other_fine: impl Fn(DVec3) -> f32 + Sync,
     ) -> Self {
         let other_sd = voxels.iter().map(|&v| *other.get(v)).collect();
-        let other_fine_sd = points.par_iter().map(|&p| other_fine.signed_distance(p)).collect();
+        let other_fine_sd = points.par_iter().map(|&p| other_fine(p)).collect();
         BoundaryErrors { voxels, other_sd, rreg, points, other_fine_sd }
     }
 

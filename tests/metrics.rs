@@ -63,7 +63,9 @@ fn errors(of: &Volume<f32>, against: &Volume<f32>, rreg: f32) -> BoundaryErrors 
     let points = voxels.iter().map(|v| DVec3::from_array(v.map(|x| x as f64))).collect();
     let other_sd = signed_distance(&inside(against));
     let fine = SubVoxel { values: against, level: 0.5, sd: &other_sd, reach: 2.0 };
-    BoundaryErrors::new(voxels.clone(), vec![rreg; voxels.len()], points, &other_sd, &fine)
+    BoundaryErrors::new(voxels.clone(), vec![rreg; voxels.len()], points, &other_sd, |p| {
+        fine.signed_distance(p)
+    })
 }
 
 /// E, Ew and RMS between two concentric voxelized balls: E is the difference of the radii

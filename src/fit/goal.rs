@@ -3,10 +3,11 @@
 
 use rayon::prelude::*;
 
+use super::surface::{self, SurfaceDisks};
 use crate::distance;
 use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
-use crate::metrics::{self, RegularityOptions, SubVoxel};
+use crate::metrics::{self, AGREEMENT, RegularityOptions, SubVoxel};
 
 /// Everything the fit needs to know about the goal shape, computed once.
 #[derive(Debug, Clone)]
@@ -22,6 +23,8 @@ pub struct Goal {
     /// The point where the densities cross 1/2 at each boundary voxel, in continuous voxel
     /// coordinates: where boundary constraints go (5.3, "at sub-voxel precision").
     pub surface: Vec<DVec3>,
+    /// The surface points as disks, for [`Goal::fine_signed_distance`].
+    pub disks: SurfaceDisks,
 }
 
 impl Goal {
@@ -30,8 +33,10 @@ impl Goal {
         let sd = distance::signed_distance(&distance::inside(&density));
         let boundary = distance::boundary_voxels(&sd);
         let rreg = metrics::radii_of_regularity(&sd, &boundary, regularity);
-        let surface = boundary.par_iter().map(|&v| distance::surface_point(&density, v)).collect();
-        Goal { density, sd, boundary, rreg, surface }
+        let surface: Vec<DVec3> =
+            boundary.par_iter().map(|&v| distance::surface_point(&density, v)).collect();
+        let disks = SurfaceDisks::new(&surface, &density);
+        Goal { density, sd, boundary, rreg, surface, disks }
     }
 
     /// The grid the goal lives on.
@@ -42,6 +47,28 @@ impl Goal {
     /// The goal's signed distance to sub-voxel precision, from the densities near the surface.
     pub fn sub_voxel(&self) -> SubVoxel<'_> {
         SubVoxel { values: &self.density, level: 0.5, sd: &self.sd, reach: 1.5 }
+    }
+
+    /// The goal's signed distance at `p` (continuous voxel coordinates, inside positive, in
+    /// voxels): to the nearest of its surface disks within [`surface::REACH`] voxels of its
+    /// voxel surface ([`super::surface`]), the voxel-centre distance elsewhere and wherever the
+    /// two differ by more than [`AGREEMENT`]. Within a voxel of the surface the side is the
+    /// disk's, further out the voxel-centre distance's.
+    pub fn fine_signed_distance(&self, p: DVec3) -> f32 {
+        let coarse = distance::sample(&self.sd, p);
+        if coarse.abs() > surface::REACH {
+            return coarse;
+        }
+        match self.disks.signed_distance(p) {
+            Some(d) if (d.abs() - coarse.abs()).abs() <= AGREEMENT => {
+                if d.abs() < 1.0 {
+                    d
+                } else {
+                    d.abs().copysign(coarse)
+                }
+            }
+            _ => coarse,
+        }
     }
 
     /// The point of the goal's surface nearest `p` (continuous voxel coordinates), or `None`

@@ -24,6 +24,7 @@ mod init;
 pub mod naive;
 mod refine;
 pub mod report;
+pub mod surface;
 
 use std::time::Instant;
 
@@ -408,16 +409,13 @@ fn measure(
         goal.rreg.clone(),
         goal.surface.clone(),
         &sd_current,
-        &current_fine,
+        |p| current_fine.signed_distance(p),
     );
     let unmeasured = vec![f32::NAN; current_boundary.len()];
-    let mut current_side = BoundaryErrors::new(
-        current_boundary,
-        unmeasured,
-        current_points,
-        &goal.sd,
-        &goal.sub_voxel(),
-    );
+    let mut current_side =
+        BoundaryErrors::new(current_boundary, unmeasured, current_points, &goal.sd, |p| {
+            goal.fine_signed_distance(p)
+        });
     current_regularity(&goal_side, &mut current_side, &sd_current, options);
     let metrics = ErrorMetrics::measure(&goal_side, &current_side);
     timings.misc += clock.elapsed().as_secs_f64();

@@ -28,12 +28,14 @@ fn failure(command: &mut Command) -> String {
     stderr
 }
 
-/// A fit of the triceratops on a coarse grid, made once for every test: the folder holding
-/// `model.json`, `report.json` and the snapshots in `snapshots/`.
+/// A fit of the triceratops on a coarse grid, made once for every test of this process: the
+/// folder holding `model.json`, `report.json` and the snapshots in `snapshots/`. Each process
+/// has its own (nextest runs every test in a process of its own, several at once).
 fn fitted() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli_render");
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+            .join(format!("cli_render-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let _ = std::fs::remove_dir_all(dir.join("snapshots"));
         run(implicitize()

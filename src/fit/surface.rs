@@ -1,0 +1,150 @@
+//! The goal's signed distance to sub-voxel precision, from its surface points (paper 4.3's
+//! errors, measured off the voxel centres).
+//!
+//! The errors of the current surface's boundary are the goal's signed distance at points on the
+//! current surface. From the densities alone (`(density - 1/2) / |∇density|`, [`SubVoxel`]) that
+//! distance is only right close to the goal's surface: the densities of a voxelization are a
+//! ramp about one voxel wide, flat beyond it, so further out the estimate is off (by up to 0.78
+//! voxels within two voxels of a voxelized ball) and past its reach of 1.5 voxels gives way to the
+//! voxel-centre distance. Fits at 512 voxels showed it: their sub-voxel E sat at 1.47 to 1.51
+//! voxels for tens of iterations, at current-surface points whose voxel-centre distance was
+//! 0.5 or 0.91.
+//!
+//! Here the goal's surface is its surface points (one per goal boundary voxel, where the densities
+//! cross 1/2), each taken as a small disk across the densities' gradient, and the distance is the
+//! distance to the nearest disk. The disks' radius, half a voxel, covers the gaps between points
+//! of neighbouring boundary voxels.
+//!
+//! [`SubVoxel`]: crate::metrics::SubVoxel
+
+use std::collections::HashMap;
+
+use rayon::prelude::*;
+
+use crate::distance;
+use crate::geometry::DVec3;
+use crate::grid::Volume;
+
+/// The side of the cells that index the points, in voxels: queries look at the 27 cells around
+/// theirs, so every point within this distance is seen.
+const CELL: f64 = 3.0;
+
+/// The radius of each point's disk, in voxels.
+const DISK_RADIUS: f64 = 0.5;
+
+/// How far from the goal's voxel surface (voxels) distances are measured to the disks; beyond,
+/// the voxel-centre distance stands.
+pub const REACH: f32 = 2.5;
+
+/// The goal's surface points with their normals, indexed by cell.
+#[derive(Debug, Clone, Default)]
+pub struct SurfaceDisks {
+    points: Vec<DVec3>,
+    /// Unit normals pointing inside (up the densities), zero where the densities are flat.
+    normals: Vec<DVec3>,
+    cells: HashMap<[i64; 3], Vec<u32>>,
+}
+
+impl SurfaceDisks {
+    /// The disks at `points`, on the surface of `density`.
+    pub fn new(points: &[DVec3], density: &Volume<f32>) -> SurfaceDisks {
+        let normals = points
+            .par_iter()
+            .map(|&p| distance::gradient(density, p).try_normalize().unwrap_or(DVec3::ZERO))
+            .collect();
+        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        for (i, &p) in points.iter().enumerate() {
+            cells.entry(cell_of(p)).or_default().push(i as u32);
+        }
+        SurfaceDisks { points: points.to_vec(), normals, cells }
+    }
+
+    /// The signed distance (voxels, inside positive) from `q` to the nearest disk, or `None`
+    /// where no disk lies within [`CELL`] voxels.
+    pub fn signed_distance(&self, q: DVec3) -> Option<f32> {
+        let [x, y, z] = cell_of(q);
+        let mut nearest: Option<(f64, f64)> = None;
+        let around =
+            (-1..=1).flat_map(|i| (-1..=1).flat_map(move |j| (-1..=1).map(move |k| [i, j, k])));
+        for cell in around {
+            let Some(indices) = self.cells.get(&[x + cell[0], y + cell[1], z + cell[2]]) else {
+                continue;
+            };
+            for &i in indices {
+                let (d, side) = self.disk_distance(i as usize, q);
+                if nearest.is_none_or(|(best, _)| d < best) {
+                    nearest = Some((d, side));
+                }
+            }
+        }
+        nearest.map(|(d, side)| (d.copysign(side)) as f32)
+    }
+
+    /// The distance from `q` to disk `i`, and which side of it `q` lies on (positive inside).
+    fn disk_distance(&self, i: usize, q: DVec3) -> (f64, f64) {
+        let v = q - self.points[i];
+        let n = self.normals[i];
+        let across = n.dot(v);
+        let along = (v.length_squared() - across * across).max(0.0).sqrt();
+        let beyond = (along - DISK_RADIUS).max(0.0);
+        ((across * across + beyond * beyond).sqrt(), across)
+    }
+}
+
+fn cell_of(p: DVec3) -> [i64; 3] {
+    (p / CELL).floor().to_array().map(|c| c as i64)
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    use crate::fit::Goal;
+    use crate::geometry::DVec3;
+    use crate::grid::{Grid, Volume};
+    use crate::metrics::RegularityOptions;
+
+    /// A ball of radius `radius` voxels at `centre`, voxelized by supersampling each voxel
+    /// 8 x 8 x 8 times.
+    fn ball(n: usize, centre: DVec3, radius: f64) -> Goal {
+        let grid = Grid { dims: [n; 3], origin: [0.0; 3], voxel_size: 1.0 };
+        let data = (0..grid.len())
+            .map(|v| {
+                let p = DVec3::from_array(grid.voxel(v).map(|c| c as f64));
+                let mut inside = 0;
+                for s in 0..512 {
+                    let offset = DVec3::new((s / 64) as f64, (s / 8 % 8) as f64, (s % 8) as f64);
+                    let q = p + (offset + 0.5) / 8.0 - 0.5;
+                    inside += usize::from(q.distance(centre) < radius);
+                }
+                inside as f32 / 512.0
+            })
+            .collect();
+        Goal::from_density(Volume { grid, data }, &RegularityOptions::default())
+    }
+
+    /// Within two voxels of a voxelized ball the distance to the disks is within 0.4 voxels
+    /// of the exact one, 0.05 on average (the surface points' own error; measured 0.34 and
+    /// 0.04), where the densities' estimate is off by up to 0.78 voxels.
+    #[test]
+    fn distances_to_a_ball_are_within_the_surface_points_error() {
+        let centre = DVec3::splat(20.3);
+        let radius = 12.4;
+        let goal = ball(41, centre, radius);
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let (mut worst, mut sum) = (0.0f64, 0.0);
+        let count = 4000;
+        for _ in 0..count {
+            let direction = DVec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
+            let direction = direction.try_normalize().unwrap_or(DVec3::X);
+            let depth = 4.0 * rng.random::<f64>() - 2.0;
+            let q = centre + direction * (radius - depth);
+            let error = (f64::from(goal.fine_signed_distance(q)) - depth).abs();
+            worst = worst.max(error);
+            sum += error;
+        }
+        let mean = sum / count as f64;
+        assert!(worst < 0.4 && mean < 0.05, "{worst} voxels off at worst, {mean} on average");
+    }
+}
