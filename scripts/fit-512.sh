@@ -6,9 +6,9 @@
 # distance with libigl; for the bunny only from the mesh to the implicit, its base being open),
 # and E against the number of centres over the fit's iterations.
 #
-# Each fit stops after ITERATIONS iterations (default 40; the fit's own default, 100, takes
-# the better part of an hour a model at 512 on 2 cores). The bunny's model is then rendered
-# beside its mesh into docs/images/bunny-512-compare.png.
+# Each fit stops after at most ITERATIONS iterations (default 90; the fits of the three models
+# stop earlier, for want of improvement or of candidates, after 45 to 55). The bunny's model
+# is then rendered beside its mesh into docs/images/bunny-512-compare.png.
 #
 # Usage: [ITERATIONS=N] scripts/fit-512.sh [MODEL...]   (default: bunny horse triceratops)
 # Outputs stay in target/fit-512/. Needs Python 3 for libigl and trimesh (made by
@@ -24,7 +24,7 @@ cargo build --release --quiet --bin implicitize
 for model in "${models[@]}"; do
   mesh=$(ls ../shared/models/"$model".* | head -1)
   /usr/bin/time -f "%e %M" -o "$out/$model.time" ./target/release/implicitize fit "$mesh" \
-    --resolution 512 --target-error 1 --subvoxel --max-iterations "${ITERATIONS:-40}" --quiet \
+    --resolution 512 --target-error 1 --subvoxel --max-iterations "${ITERATIONS:-90}" --quiet \
     -o "$out/$model.json" --report "$out/$model-report.json" --mesh-out "$out/$model.ply"
   "$python" - "$model" "$mesh" "$out" <<'PY'
 import json, sys

@@ -17,7 +17,8 @@
 //! across a gap) the soft constraint stays, as in the paper: there the nearest goal surface
 //! point says nothing about where the current surface should go.
 //!
-//! Errors here are measured to sub-voxel precision ([`crate::metrics::SubVoxel`]) rather than
+//! Errors here are measured to sub-voxel precision ([`crate::metrics::SubVoxel`] for the
+//! current surface, [`super::surface`] for the goal) rather than
 //! at voxel centres: a voxel-centre distance is off by up to a voxel, and near the end of a fit
 //! those steps would pass the error rules below and flood the model with constraints that
 //! correct nothing.

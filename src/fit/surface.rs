@@ -18,12 +18,14 @@
 //! [`SubVoxel`]: crate::metrics::SubVoxel
 
 use std::collections::HashMap;
+use std::hash::BuildHasherDefault;
 
 use rayon::prelude::*;
 
 use crate::distance;
 use crate::geometry::DVec3;
 use crate::grid::Volume;
+use crate::polygonize::IndexHasher;
 
 /// The side of the cells that index the points, in voxels: queries look at the 27 cells around
 /// theirs, so every point within this distance is seen.
@@ -42,7 +44,8 @@ pub struct SurfaceDisks {
     points: Vec<DVec3>,
     /// Unit normals pointing inside (up the densities), zero where the densities are flat.
     normals: Vec<DVec3>,
-    cells: HashMap<[i64; 3], Vec<u32>>,
+    /// The points of each cell, by [`key`].
+    cells: HashMap<u64, Vec<u32>, BuildHasherDefault<IndexHasher>>,
 }
 
 impl SurfaceDisks {
@@ -52,24 +55,27 @@ impl SurfaceDisks {
             .par_iter()
             .map(|&p| distance::gradient(density, p).try_normalize().unwrap_or(DVec3::ZERO))
             .collect();
-        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        let mut cells: HashMap<u64, Vec<u32>, BuildHasherDefault<IndexHasher>> = HashMap::default();
         for (i, &p) in points.iter().enumerate() {
-            cells.entry(cell_of(p)).or_default().push(i as u32);
+            cells.entry(key(cell_of(p))).or_default().push(i as u32);
         }
         SurfaceDisks { points: points.to_vec(), normals, cells }
     }
 
     /// The signed distance (voxels, inside positive) from `q` to the nearest disk, or `None`
-    /// where no disk lies within [`CELL`] voxels.
+    /// where no point lies in `q`'s cell or the 26 around it. Cells are visited from `q`'s own,
+    /// and a cell whose box is further from `q` than the nearest disk so far (less the disks'
+    /// radius) is skipped.
     pub fn signed_distance(&self, q: DVec3) -> Option<f32> {
-        let [x, y, z] = cell_of(q);
+        let home = cell_of(q);
         let mut nearest: Option<(f64, f64)> = None;
-        let around =
-            (-1..=1).flat_map(|i| (-1..=1).flat_map(move |j| (-1..=1).map(move |k| [i, j, k])));
-        for cell in around {
-            let Some(indices) = self.cells.get(&[x + cell[0], y + cell[1], z + cell[2]]) else {
+        for offset in AROUND {
+            let cell: [i64; 3] = std::array::from_fn(|a| home[a] + offset[a]);
+            let reach = nearest.map_or(f64::INFINITY, |(best, _)| best + DISK_RADIUS);
+            if box_distance(q, cell) >= reach {
                 continue;
-            };
+            }
+            let Some(indices) = self.cells.get(&key(cell)) else { continue };
             for &i in indices {
                 let (d, side) = self.disk_distance(i as usize, q);
                 if nearest.is_none_or(|(best, _)| d < best) {
@@ -91,8 +97,37 @@ impl SurfaceDisks {
     }
 }
 
+/// The 27 cells around a cell, its own first.
+const AROUND: [[i64; 3]; 27] = {
+    let mut around = [[0; 3]; 27];
+    let mut n = 1;
+    let mut i = 0;
+    while i < 27 {
+        let offset = [i as i64 / 9 - 1, i as i64 / 3 % 3 - 1, i as i64 % 3 - 1];
+        if i != 13 {
+            around[n] = offset;
+            n += 1;
+        }
+        i += 1;
+    }
+    around
+};
+
 fn cell_of(p: DVec3) -> [i64; 3] {
     (p / CELL).floor().to_array().map(|c| c as i64)
+}
+
+/// A cell's key in the map: 21 bits an axis (the cells of any grid, and their wrapped
+/// neighbours below 0, stay apart).
+fn key(cell: [i64; 3]) -> u64 {
+    cell.iter().fold(0, |k, &c| (k << 21) | (c as u64 & 0x1f_ffff))
+}
+
+/// The distance from `q` to the box of `cell`.
+fn box_distance(q: DVec3, cell: [i64; 3]) -> f64 {
+    let lo = DVec3::from_array(cell.map(|c| c as f64)) * CELL;
+    let outside = (lo - q).max(q - (lo + CELL)).max(DVec3::ZERO);
+    outside.length()
 }
 
 #[cfg(test)]

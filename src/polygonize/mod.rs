@@ -70,6 +70,8 @@ mod refine;
 mod tables;
 mod track;
 
+pub(crate) use track::IndexHasher;
+
 use rayon::prelude::*;
 
 use crate::field::Field;

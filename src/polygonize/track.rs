@@ -51,7 +51,7 @@ const PREDICT_FROM: usize = 256;
 /// A hasher for voxel and edge indices: the murmur3 finalizer, which spreads indices that
 /// differ only in their high bits (voxels of one column) over the whole table.
 #[derive(Default)]
-struct IndexHasher(u64);
+pub(crate) struct IndexHasher(u64);
 
 impl Hasher for IndexHasher {
     fn write(&mut self, bytes: &[u8]) {
