@@ -59,7 +59,7 @@ impl Goal {
         if coarse.abs() > surface::REACH {
             return coarse;
         }
-        match self.disks.signed_distance(p) {
+        match self.disks.signed_distance(&self.surface, p) {
             Some(d) if (d.abs() - coarse.abs()).abs() <= AGREEMENT => {
                 if d.abs() < 1.0 {
                     d

@@ -38,10 +38,10 @@ const DISK_RADIUS: f64 = 0.5;
 /// the voxel-centre distance stands.
 pub const REACH: f32 = 2.5;
 
-/// The goal's surface points with their normals, indexed by cell.
+/// The normals of the goal's surface points and the points' cells; the points themselves stay
+/// the goal's ([`super::Goal::surface`]).
 #[derive(Debug, Clone, Default)]
 pub struct SurfaceDisks {
-    points: Vec<DVec3>,
     /// Unit normals pointing inside (up the densities), zero where the densities are flat.
     normals: Vec<DVec3>,
     /// The points of each cell, by [`key`].
@@ -59,14 +59,15 @@ impl SurfaceDisks {
         for (i, &p) in points.iter().enumerate() {
             cells.entry(key(cell_of(p))).or_default().push(i as u32);
         }
-        SurfaceDisks { points: points.to_vec(), normals, cells }
+        SurfaceDisks { normals, cells }
     }
 
-    /// The signed distance (voxels, inside positive) from `q` to the nearest disk, or `None`
+    /// The signed distance (voxels, inside positive) from `q` to the nearest disk at `points`
+    /// (the points these disks were made from), or `None`
     /// where no point lies in `q`'s cell or the 26 around it. Cells are visited from `q`'s own,
     /// and a cell whose box is further from `q` than the nearest disk so far (less the disks'
     /// radius) is skipped.
-    pub fn signed_distance(&self, q: DVec3) -> Option<f32> {
+    pub(super) fn signed_distance(&self, points: &[DVec3], q: DVec3) -> Option<f32> {
         let home = cell_of(q);
         let mut nearest: Option<(f64, f64)> = None;
         for offset in AROUND {
@@ -77,7 +78,8 @@ impl SurfaceDisks {
             }
             let Some(indices) = self.cells.get(&key(cell)) else { continue };
             for &i in indices {
-                let (d, side) = self.disk_distance(i as usize, q);
+                let i = i as usize;
+                let (d, side) = disk_distance(points[i], self.normals[i], q);
                 if nearest.is_none_or(|(best, _)| d < best) {
                     nearest = Some((d, side));
                 }
@@ -85,16 +87,16 @@ impl SurfaceDisks {
         }
         nearest.map(|(d, side)| (d.copysign(side)) as f32)
     }
+}
 
-    /// The distance from `q` to disk `i`, and which side of it `q` lies on (positive inside).
-    fn disk_distance(&self, i: usize, q: DVec3) -> (f64, f64) {
-        let v = q - self.points[i];
-        let n = self.normals[i];
-        let across = n.dot(v);
-        let along = (v.length_squared() - across * across).max(0.0).sqrt();
-        let beyond = (along - DISK_RADIUS).max(0.0);
-        ((across * across + beyond * beyond).sqrt(), across)
-    }
+/// The distance from `q` to the disk at `point` across `normal`, and which side of it `q`
+/// lies on (positive inside).
+fn disk_distance(point: DVec3, normal: DVec3, q: DVec3) -> (f64, f64) {
+    let v = q - point;
+    let across = normal.dot(v);
+    let along = (v.length_squared() - across * across).max(0.0).sqrt();
+    let beyond = (along - DISK_RADIUS).max(0.0);
+    ((across * across + beyond * beyond).sqrt(), across)
 }
 
 /// The 27 cells around a cell, its own first.
