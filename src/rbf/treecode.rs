@@ -118,55 +118,57 @@ pub(super) fn radial<K: Phi>(
     let proxies = proxy_weights(params, &sources, &source_weights);
     let targets = Tree::new(points, params.target_leaf);
     let lists = Lists::traverse(params, &targets, &sources);
-    let sum = |list: &[Source], at: Axes| {
-        let gathered = gather(params, list, &sources, &source_weights, &proxies);
-        sum_at::<K>(isa, &gathered, at)
+    // Each thread gathers its lists into buffers of its own, kept from one list to the next.
+    let sum = |gathered: &mut Gathered, list: &[Source], at: Axes| {
+        gathered.gather(params, list, &sources, &source_weights, &proxies);
+        sum_at::<K>(isa, gathered, at)
     };
     let mut grids: Vec<Option<Vec<f64>>> = (0..targets.nodes.len())
         .into_par_iter()
-        .map(|t| {
+        .map_init(Gathered::default, |gathered, t| {
             let points = targets.nodes[t].grid(params)?.points();
-            Some(sum(&lists.grid[t], std::array::from_fn(|a| points[a].as_slice())))
+            Some(sum(gathered, &lists.grid[t], std::array::from_fn(|a| points[a].as_slice())))
         })
         .collect();
     down(params, &targets, &mut grids);
-    let sorted: Vec<Vec<f64>> = (0..targets.nodes.len())
-        .into_par_iter()
-        .map(|t| {
-            let node = &targets.nodes[t];
-            let at = targets.points(node);
-            let mut values =
-                if node.is_leaf() { sum(&lists.direct[t], at) } else { vec![0.0; node.len()] };
-            if let Some((grid, potential)) = interpolating_grid(params, &targets, t, &grids) {
+    let leaves: Vec<usize> =
+        (0..targets.nodes.len()).filter(|&t| targets.nodes[t].is_leaf()).collect();
+    let sorted: Vec<Vec<f64>> = leaves
+        .par_iter()
+        .map_init(Gathered::default, |gathered, &t| {
+            let at = targets.points(&targets.nodes[t]);
+            let mut values = sum(gathered, &lists.direct[t], at);
+            if let Some((grid, potential)) = far_field(params, &targets, t, &grids) {
                 let far = grid.interpolate(potential, at);
                 values.iter_mut().zip(far).for_each(|(v, f)| *v += f);
             }
             values
         })
         .collect();
-    for (node, values) in targets.nodes.iter().zip(&sorted) {
+    for (&t, values) in leaves.iter().zip(&sorted) {
+        let node = &targets.nodes[t];
         for (&i, v) in targets.order[node.start..node.end].iter().zip(values) {
             out[i] += v;
         }
     }
 }
 
-/// The grid (and its potential) that target node `t`'s points take their far field from: its
-/// own if it is a leaf with a grid, its parent's if it has none and the parent has one.
-fn interpolating_grid<'a>(
+/// The grid (and its potential) that leaf `t`'s points take their far field from: that of the
+/// smallest node with a grid that holds them (the leaf itself or an ancestor), which [`down`]
+/// has given the far field of every node above it.
+fn far_field<'a>(
     params: &Params,
     targets: &Tree,
     t: usize,
     grids: &'a [Option<Vec<f64>>],
 ) -> Option<(Chebyshev, &'a [f64])> {
-    let node = &targets.nodes[t];
-    match (node.grid(params), node.parent) {
-        (Some(grid), _) if node.is_leaf() => Some((grid, grids[t].as_deref()?)),
-        (None, Some(parent)) => {
-            let grid = targets.nodes[parent].grid(params)?;
-            Some((grid, grids[parent].as_deref()?))
+    let mut t = t;
+    loop {
+        let node = &targets.nodes[t];
+        if let (Some(grid), Some(potential)) = (node.grid(params), grids[t].as_deref()) {
+            return Some((grid, potential));
         }
-        _ => None,
+        t = node.parent?;
     }
 }
 
@@ -330,6 +332,9 @@ fn spread(v: u64) -> u64 {
     (x | (x << 2)) & 0x1249_2492_4924_9249
 }
 
+/// Points interpolated together by [`Chebyshev::interpolate`], one a vector lane.
+const BATCH: usize = 8;
+
 /// Lagrange basis values on one axis: the first `p + 1` entries are used.
 type Basis = [f64; MAX_NODES];
 
@@ -359,18 +364,23 @@ impl Chebyshev {
 
     /// The grid points per axis, `(i, j, k)` at `(i * (p + 1) + j) * (p + 1) + k`.
     fn points(&self) -> [Vec<f64>; 3] {
+        let mut points: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; self.n.pow(3)]);
+        self.write_points(points.each_mut().map(|axis| axis.as_mut_slice()));
+        points
+    }
+
+    /// [`Chebyshev::points`] written into `out` (each axis `(p + 1)^3` long).
+    fn write_points(&self, out: [&mut [f64]; 3]) {
         let n = self.n;
-        let mut points: [Vec<f64>; 3] = std::array::from_fn(|_| Vec::with_capacity(n * n * n));
-        for &x in &self.nodes[0][..n] {
-            for &y in &self.nodes[1][..n] {
-                for &z in &self.nodes[2][..n] {
-                    points[0].push(x);
-                    points[1].push(y);
-                    points[2].push(z);
-                }
+        let [xs, ys, zs] = out;
+        for (i, &x) in self.nodes[0][..n].iter().enumerate() {
+            for (j, &y) in self.nodes[1][..n].iter().enumerate() {
+                let row = (i * n + j) * n;
+                xs[row..row + n].fill(x);
+                ys[row..row + n].fill(y);
+                zs[row..row + n].copy_from_slice(&self.nodes[2][..n]);
             }
         }
-        points
     }
 
     /// The values on the grid of `sum_m w_m L_k(x_m)` over the points `x_m` with weights `w_m`:
@@ -391,25 +401,41 @@ impl Chebyshev {
         q
     }
 
-    /// The interpolant of `potential` (values on the grid) at each point of `at`.
+    /// The interpolant of `potential` (values on the grid) at each point of `at`, [`BATCH`]
+    /// points at a time, one point a lane.
     fn interpolate(&self, potential: &[f64], at: Axes) -> Vec<f64> {
         let n = self.n;
-        (0..at[0].len())
-            .map(|m| {
-                let [lx, ly, lz] = std::array::from_fn(|a| self.basis(a, at[a][m]));
-                let mut v = 0.0;
-                for (i, &x) in lx[..n].iter().enumerate() {
-                    let mut vy = 0.0;
-                    for (j, &y) in ly[..n].iter().enumerate() {
-                        let row = &potential[(i * n + j) * n..][..n];
-                        let vz: f64 = row.iter().zip(&lz).map(|(p, z)| p * z).sum();
-                        vy += y * vz;
+        let count = at[0].len();
+        let mut out = Vec::with_capacity(count);
+        for start in (0..count).step_by(BATCH) {
+            let lanes = BATCH.min(count - start);
+            // The basis functions per axis, `[k][lane]`.
+            let mut basis = [[[0.0; BATCH]; MAX_NODES]; 3];
+            for (a, axis) in basis.iter_mut().enumerate() {
+                for lane in 0..lanes {
+                    let l = self.basis(a, at[a][start + lane]);
+                    for (row, &v) in axis.iter_mut().zip(&l[..n]) {
+                        row[lane] = v;
                     }
-                    v += x * vy;
                 }
-                v
-            })
-            .collect()
+            }
+            let [lx, ly, lz] = &basis;
+            let mut v = [0.0; BATCH];
+            for (i, x) in lx[..n].iter().enumerate() {
+                let mut vy = [0.0; BATCH];
+                for (j, y) in ly[..n].iter().enumerate() {
+                    let row = &potential[(i * n + j) * n..][..n];
+                    let mut vz = [0.0; BATCH];
+                    for (&p, z) in row.iter().zip(lz) {
+                        (0..BATCH).for_each(|l| vz[l] += p * z[l]);
+                    }
+                    (0..BATCH).for_each(|l| vy[l] += y[l] * vz[l]);
+                }
+                (0..BATCH).for_each(|l| v[l] += x[l] * vy[l]);
+            }
+            out.extend_from_slice(&v[..lanes]);
+        }
+        out
     }
 
     /// The interpolant of `potential` at the points of grid `to`, axis by axis.
@@ -548,42 +574,54 @@ impl Lists {
     }
 }
 
-/// Centres per axis (one axis after another) and weights.
+/// The centres (one axis after another) and weights of an interaction list, in its order.
+#[derive(Default)]
 struct Gathered {
     centres: Vec<f64>,
     weights: Vec<f64>,
 }
 
-/// The centres and weights of an interaction list, in its order.
-fn gather(
-    params: &Params,
-    list: &[Source],
-    sources: &Tree,
-    weights: &[f64],
-    proxies: &[Option<Vec<f64>>],
-) -> Gathered {
-    let mut axes: [Vec<f64>; 3] = Default::default();
-    let mut gathered_weights = Vec::new();
-    for &source in list {
-        match source {
-            Source::Proxies(s) => {
-                let Some(grid) = sources.nodes[s].grid(params) else { continue };
-                let Some(q) = proxies[s].as_deref() else { continue };
-                for (axis, points) in axes.iter_mut().zip(grid.points()) {
-                    axis.extend_from_slice(&points);
+impl Gathered {
+    /// Replaces the contents with the centres and weights of `list`, reusing the buffers.
+    fn gather(
+        &mut self,
+        params: &Params,
+        list: &[Source],
+        sources: &Tree,
+        weights: &[f64],
+        proxies: &[Option<Vec<f64>>],
+    ) {
+        let count = |source: &Source| match *source {
+            Source::Proxies(_) => params.grid(),
+            Source::Centres(s) => sources.nodes[s].len(),
+        };
+        let n: usize = list.iter().map(count).sum();
+        self.centres.resize(3 * n, 0.0);
+        self.weights.clear();
+        let (x, rest) = self.centres.split_at_mut(n);
+        let (y, z) = rest.split_at_mut(n);
+        let mut axes: [&mut [f64]; 3] = [x, y, z];
+        let mut at = 0;
+        for source in list {
+            let len = count(source);
+            let to: [&mut [f64]; 3] = axes.each_mut().map(|axis| &mut axis[at..at + len]);
+            match *source {
+                Source::Proxies(s) => {
+                    Chebyshev::new(params.degree, &sources.nodes[s].bounds).write_points(to);
+                    let q = proxies[s].as_deref().expect("a source node with a grid has proxies");
+                    self.weights.extend_from_slice(q);
                 }
-                gathered_weights.extend_from_slice(q);
-            }
-            Source::Centres(s) => {
-                let node = &sources.nodes[s];
-                for (axis, points) in axes.iter_mut().zip(sources.points(node)) {
-                    axis.extend_from_slice(points);
+                Source::Centres(s) => {
+                    let node = &sources.nodes[s];
+                    for (to, from) in to.into_iter().zip(sources.points(node)) {
+                        to.copy_from_slice(from);
+                    }
+                    self.weights.extend_from_slice(&weights[node.start..node.end]);
                 }
-                gathered_weights.extend_from_slice(&weights[node.start..node.end]);
             }
+            at += len;
         }
     }
-    Gathered { centres: axes.concat(), weights: gathered_weights }
 }
 
 /// The sums of `gathered` at the points `at`, by the vectorized direct loop.
