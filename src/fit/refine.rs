@@ -80,10 +80,7 @@ pub fn new_constraints(
     existing: &[FitConstraint],
     options: &FitOptions,
 ) -> Vec<FitConstraint> {
-    let mut min_error = max_error * options.error_fraction;
-    if std::env::var("X1").is_ok() {
-        min_error = min_error.min(options.target_error);
-    }
+    let min_error = max_error * options.error_fraction;
     let mut candidates = Vec::new();
     for i in 0..goal_side.voxels.len() {
         let error = goal_side.fine_error(i);
