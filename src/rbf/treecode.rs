@@ -602,7 +602,7 @@ impl Gathered {
         proxies: &[Option<Vec<f64>>],
     ) {
         let count = |source: &Source| match *source {
-            Source::Proxies(_) => params.grid(),
+            Source::Proxies(s) => proxies[s].as_ref().map_or(0, Vec::len),
             Source::Centres(s) => sources.nodes[s].len(),
         };
         let n: usize = list.iter().map(count).sum();
@@ -617,9 +617,10 @@ impl Gathered {
             let to: [&mut [f64]; 3] = axes.each_mut().map(|axis| &mut axis[at..at + len]);
             match *source {
                 Source::Proxies(s) => {
-                    Chebyshev::new(params.degree, &sources.nodes[s].bounds).write_points(to);
-                    let q = proxies[s].as_deref().expect("a source node with a grid has proxies");
-                    self.weights.extend_from_slice(q);
+                    if let Some(q) = proxies[s].as_deref() {
+                        Chebyshev::new(params.degree, &sources.nodes[s].bounds).write_points(to);
+                        self.weights.extend_from_slice(q);
+                    }
                 }
                 Source::Centres(s) => {
                     let node = &sources.nodes[s];
