@@ -7,8 +7,8 @@
 # and E against the number of centres over the fit's iterations.
 #
 # Each fit stops after at most ITERATIONS iterations (default 90; the fits of the three models
-# stop earlier, for want of improvement or of candidates, after 45 to 55). The bunny's model
-# is then rendered beside its mesh into docs/images/bunny-512-compare.png.
+# stop earlier, at the target or for want of improvement or of candidates, after 42 to 49).
+# The bunny's model is then rendered beside its mesh into docs/images/bunny-512-compare.png.
 #
 # Usage: [ITERATIONS=N] scripts/fit-512.sh [MODEL...]   (default: bunny horse triceratops)
 # Outputs stay in target/fit-512/. Needs Python 3 for libigl and trimesh (made by

@@ -351,7 +351,7 @@ mod tests {
     /// through and around each mesh: a hollow ball (an outer sphere and an inward inner one,
     /// where the dipole alone was off by 0.3), a finely split cube, and an open hemisphere.
     #[test]
-    fn within_a_twentieth_of_the_exact_sum() {
+    fn within_three_hundredths_of_the_exact_sum() {
         let mut hollow = sphere(1.0, 80, false);
         hollow.extend(sphere(0.6, 80, true));
         let hemisphere: Vec<_> =
