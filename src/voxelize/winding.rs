@@ -212,8 +212,9 @@ fn outer(a: DVec3, b: DVec3) -> DMat3 {
 /// distance `dist`, to second order (Barill et al. 2018, section 3.2): each unit of vector
 /// area `A` at offset `r` from the query subtends `A . K(r)`, `K(r) = r / |r|^3`; expanded
 /// about the cluster's centre,
-/// `sum A_t . K(d + delta_t) = area . K(d) + J(d) : moment + 1/2 H(d) : spread` with the Jacobian `J_ij = δ_ij / |d|^3 - 3 d_i d_j / |d|^5` and the
-/// Hessian `H_ijk = -3 (δ_ij d_k + δ_ik d_j + δ_jk d_i) / |d|^5 + 15 d_i d_j d_k / |d|^7`.
+/// `sum A_t . K(d + delta_t) = area . K(d) + J(d) : moment + 1/2 H(d) : spread`
+/// with the Jacobian `J_ij = δ_ij / |d|^3 - 3 d_i d_j / |d|^5` and the Hessian
+/// `H_ijk = -3 (δ_ij d_k + δ_ik d_j + δ_jk d_i) / |d|^5 + 15 d_i d_j d_k / |d|^7`.
 /// The first-order term carries the cluster's curvature, which the dipole alone misses (a
 /// curved shell seen from inside); the second lets clusters nearer the query be approximated.
 fn far_field(node: &Node, d: DVec3, dist: f64) -> f64 {
