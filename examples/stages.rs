@@ -21,7 +21,7 @@ fn main() -> anyhow::Result<()> {
     let grid = Grid::around(&mesh.bounds().context("empty mesh")?, Resolution::Dims(dims))?;
 
     let t = Instant::now();
-    let density = voxelize::voxelize(&mesh, &grid, &Default::default())?;
+    let density = voxelize::voxelize(&mesh, &grid, &Default::default())?.density;
     let voxelize_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let sd = distance::signed_distance(&distance::inside(&density));

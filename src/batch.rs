@@ -17,9 +17,14 @@
 //!
 //! # Resuming
 //! Every file is written to a temporary file in the same folder and renamed into place
-//! ([`crate::output`]), so a killed run leaves no half-written output under its final name. A
-//! rerun skips a mesh whose entry says `ok` and whose outputs are all there (its manifest line
-//! is the stored one); failed meshes are tried again. The manifest is rewritten at the end of every run.
+//! ([`crate::output`]), so a killed run leaves no half-written output under its final name.
+//! Each entry records what made it ([`Origin`]): the input's size, modification time and
+//! content hash (BLAKE3), the options that decide the outputs and the library's version. A
+//! rerun reuses a mesh's outputs only when its stored entry says `ok`, its outputs are all
+//! there and its origin is the current one: another resolution, seed or target, a changed or
+//! touched mesh, or another version of the library refits it (the number of concurrent jobs
+//! and the memory limit decide no output and are not recorded). Failed meshes are tried
+//! again. The manifest is rewritten at the end of every run.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -29,8 +34,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::mesh;
-use crate::pipeline::{Fitted, MeshFitOptions, Prepared};
+use crate::pipeline::{self, FitOutputs, Fitted, MeshFitOptions, MeshSource};
 
 /// The extensions of the mesh files a folder is searched for (any case).
 pub const MESH_EXTENSIONS: [&str; 4] = ["obj", "ply", "stl", "off"];
@@ -38,13 +42,57 @@ pub const MESH_EXTENSIONS: [&str; 4] = ["obj", "ply", "stl", "off"];
 /// The manifest's file name in the output folder.
 pub const MANIFEST: &str = "manifest.jsonl";
 
-/// What a batch makes of each mesh.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// What a batch makes of each mesh. It serializes as each entry's [`Origin`] records it
+/// (without the memory limit).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct BatchOptions {
-    /// The fit (grid, method, thresholds, seed).
+    /// The fit (grid, method, thresholds, seed, memory limit of the whole batch).
     pub fit: MeshFitOptions,
     /// Also write the signed distance volume of the fit's grid.
     pub sdf: bool,
+}
+
+/// What made a mesh's outputs: its input file as it was and the options, so that a rerun
+/// reuses them only when nothing has changed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Origin {
+    /// The input file's size in bytes.
+    pub bytes: u64,
+    /// Its modification time, in nanoseconds since the Unix epoch (0 where the file system
+    /// keeps none).
+    pub modified_ns: u64,
+    /// The BLAKE3 hash of its contents, in hex.
+    pub blake3: String,
+    /// The [`BatchOptions`] of the run, as JSON.
+    pub options: serde_json::Value,
+    /// The version of the library that made the outputs.
+    pub version: String,
+}
+
+impl Origin {
+    /// The origin of outputs made now from `input` with `options`.
+    ///
+    /// # Errors
+    /// The input cannot be read.
+    pub fn of(input: &Path, options: &BatchOptions) -> Result<Origin> {
+        let io = |e| Error::io(input, e);
+        let metadata = std::fs::metadata(input).map_err(io)?;
+        let modified_ns = metadata
+            .modified()
+            .ok()
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX));
+        let mut hasher = blake3::Hasher::new();
+        hasher.update_reader(std::fs::File::open(input).map_err(io)?).map_err(io)?;
+        Ok(Origin {
+            bytes: metadata.len(),
+            modified_ns,
+            blake3: hasher.finalize().to_hex().to_string(),
+            options: as_stored(options),
+            version: env!("CARGO_PKG_VERSION").to_string(),
+        })
+    }
 }
 
 /// One mesh to convert: its file and the name of its outputs.
@@ -90,6 +138,11 @@ pub struct Entry {
     /// The fraction of voxel centres decided by a winding number near 1/2 (see
     /// [`crate::voxelize::Inside`]).
     pub winding_near_half: Option<f64>,
+    /// What made the outputs (for a failure, what was tried, when the input could be read).
+    pub origin: Option<Origin>,
+    /// Whether this run reused the outputs of an earlier one.
+    #[serde(default)]
+    pub reused: bool,
 }
 
 /// The mesh files `inputs` name, in order and without repeats: files as they are, folders
@@ -168,61 +221,87 @@ pub fn plan(inputs: &[PathBuf]) -> Vec<Job> {
         .collect()
 }
 
+/// `options` as JSON, read back as a stored entry's are (numbers as the file spells them), so
+/// that the two compare equal.
+fn as_stored(options: &BatchOptions) -> serde_json::Value {
+    let text = serde_json::to_string(options).expect("options always serialize");
+    serde_json::from_str(&text).expect("JSON just written always reads")
+}
+
 /// The output files of `job` in `out`: model, report, entry, and the volume's two files.
 struct Outputs {
-    model: PathBuf,
-    report: PathBuf,
-    sdf: PathBuf,
+    files: FitOutputs,
     entry: PathBuf,
 }
 
 impl Outputs {
-    fn of(job: &Job, out: &Path) -> Outputs {
+    fn of(job: &Job, out: &Path, sdf: bool) -> Outputs {
         let file = |suffix: &str| out.join(format!("{}{suffix}", job.name));
-        Outputs {
-            model: file(".json"),
-            report: file(".report.json"),
-            sdf: file(".sdf.npy"),
-            entry: file(".entry.json"),
-        }
+        let mut files = FitOutputs::default();
+        files.model = Some(file(".json"));
+        files.report = Some(file(".report.json"));
+        files.sdf = sdf.then(|| file(".sdf.npy"));
+        Outputs { files, entry: file(".entry.json") }
     }
 
-    /// The stored entry, when it says `ok` and every output it stands for is there.
-    fn complete(&self, sdf: bool) -> Option<Entry> {
+    /// The stored entry, when it says `ok`, every output it stands for is there and it was
+    /// made from `origin`.
+    fn complete(&self, origin: &Origin) -> Option<Entry> {
         let entry: Entry = serde_json::from_slice(&std::fs::read(&self.entry).ok()?).ok()?;
-        let there = self.model.is_file()
-            && self.report.is_file()
-            && (!sdf || (self.sdf.is_file() && self.sdf.with_extension("json").is_file()));
-        (entry.status == Status::Ok && there).then_some(entry)
+        let sdf_grid = self.files.sdf.as_ref().map(|p| p.with_extension("json"));
+        let files = [&self.files.model, &self.files.report, &self.files.sdf, &sdf_grid];
+        let there = files.into_iter().flatten().all(|p| p.is_file());
+        let same = entry.origin.as_ref() == Some(origin);
+        (entry.status == Status::Ok && there && same).then_some(Entry { reused: true, ..entry })
     }
 }
 
 /// Converts one mesh into `out` (which must exist), or takes its complete outputs from an
-/// earlier run. Never fails: a failure is an entry with its message, and a panic (which no
-/// input should cause) is caught and reported as one.
+/// earlier run made from the same input and options. Never fails: a failure is an entry with
+/// its message, and a panic (which no input should cause) is caught and reported as one, with
+/// its message.
 pub fn convert(job: &Job, out: &Path, options: &BatchOptions) -> Entry {
-    let outputs = Outputs::of(job, out);
-    if let Some(done) = outputs.complete(options.sdf) {
+    let clock = Instant::now();
+    let origin = match Origin::of(&job.input, options) {
+        Ok(origin) => origin,
+        Err(e) => return failed_entry(job, e.to_string(), None, 0.0),
+    };
+    let outputs = Outputs::of(job, out, options.sdf);
+    if let Some(done) = outputs.complete(&origin) {
         return done;
     }
-    let clock = Instant::now();
-    let result = std::panic::catch_unwind(|| fit_and_write(job, &outputs, options))
-        .unwrap_or_else(|_| Err(Error::invalid(job.input.display().to_string(), "internal error")));
+    let result = std::panic::catch_unwind(|| {
+        let source = MeshSource::File(&job.input);
+        pipeline::fit(source, &options.fit, &outputs.files, &mut ())
+    })
+    .unwrap_or_else(|panic| {
+        Err(Error::invalid(job.input.display().to_string(), panic_message(&panic)))
+    });
     let seconds = clock.elapsed().as_secs_f64();
     let mut entry = match result {
-        Ok(fitted) => ok_entry(job, &fitted, seconds),
-        Err(e) => failed_entry(job, e.to_string(), seconds),
+        Ok(fitted) => ok_entry(job, &fitted, origin, seconds),
+        Err(e) => failed_entry(job, e.to_string(), Some(origin), seconds),
     };
     if entry.status == Status::Ok {
         let line = serde_json::to_string(&entry).expect("an entry always serializes");
         if let Err(e) = crate::output::write_bytes(&outputs.entry, format!("{line}\n").as_bytes()) {
-            entry = failed_entry(job, e.to_string(), seconds);
+            entry = failed_entry(job, e.to_string(), entry.origin, seconds);
         }
     }
     entry
 }
 
-fn ok_entry(job: &Job, fitted: &Fitted, seconds: f64) -> Entry {
+/// What a caught panic said.
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    let said = panic
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "no message".into());
+    format!("internal error (please report it): {said}")
+}
+
+fn ok_entry(job: &Job, fitted: &Fitted, origin: Origin, seconds: f64) -> Entry {
     let c = fitted.report.constraints;
     Entry {
         input: job.input.display().to_string(),
@@ -235,11 +314,13 @@ fn ok_entry(job: &Job, fitted: &Fitted, seconds: f64) -> Entry {
         watertight: Some(fitted.inside.watertight),
         winding_decided: Some(fitted.inside.winding_decided),
         winding_near_half: Some(fitted.inside.winding_near_half),
+        origin: Some(origin),
+        reused: false,
     }
 }
 
-/// The entry of a failed conversion.
-pub fn failed_entry(job: &Job, error: String, seconds: f64) -> Entry {
+/// The entry of a failed conversion, with what was tried when known.
+pub fn failed_entry(job: &Job, error: String, origin: Option<Origin>, seconds: f64) -> Entry {
     Entry {
         input: job.input.display().to_string(),
         name: job.name.clone(),
@@ -251,28 +332,15 @@ pub fn failed_entry(job: &Job, error: String, seconds: f64) -> Entry {
         watertight: None,
         winding_decided: None,
         winding_near_half: None,
+        origin,
+        reused: false,
     }
 }
 
-/// Reads, voxelizes (writing the signed distance), fits, and writes the model and report.
-fn fit_and_write(job: &Job, outputs: &Outputs, options: &BatchOptions) -> Result<Fitted> {
-    let (mesh, _) = mesh::read(&job.input)?;
-    let prepared = Prepared::new(&mesh, &job.input.display().to_string(), &options.fit)?;
-    if options.sdf {
-        prepared.goal().sd.save_npy(&outputs.sdf)?;
-    }
-    let mut fitted = prepared.fit(|_, _| {})?;
-    fitted.report.mesh_bytes = std::fs::metadata(&job.input).ok().map(|m| m.len());
-    fitted.finish();
-    crate::output::write_bytes(&outputs.model, fitted.model.to_json().as_bytes())?;
-    let report = serde_json::to_string_pretty(&fitted.report).expect("a report always serializes");
-    crate::output::write_bytes(&outputs.report, format!("{report}\n").as_bytes())?;
-    Ok(fitted)
-}
-
-/// Converts every job in parallel (at most `jobs` at once; rayon's pool of that many threads
+/// Converts every job in parallel (at most `threads` at once; rayon's pool of that many threads
 /// also runs each fit's own parallel loops), calling `done` as each finishes. The entries come
-/// back in the jobs' order.
+/// back in the jobs' order. The memory limit of `options` is the whole batch's: each job
+/// running at once gets its share.
 ///
 /// # Errors
 /// The thread pool cannot be made.
@@ -288,11 +356,13 @@ pub fn run(
         .num_threads(threads)
         .build()
         .map_err(|e| Error::invalid("batch", format!("cannot start {threads} threads: {e}")))?;
+    let mut options = options.clone();
+    options.fit.memory_limit = options.fit.memory_limit.share(threads.min(jobs.len()));
     Ok(pool.install(|| {
         jobs.par_iter()
             .with_max_len(1)
             .map(|job| {
-                let entry = convert(job, out, options);
+                let entry = convert(job, out, &options);
                 done(&entry);
                 entry
             })

@@ -3,6 +3,11 @@
 //! Every error that comes from user input names the file it came from and, where it
 //! applies, the line or byte offset, so the command-line tool can print it as one clear
 //! line. No user input makes the library panic.
+//!
+//! Messages name the library's own settings (the fields of the option structs) between
+//! backquotes, as `` `max_iterations` `` or `` `resolution=812` ``; each front end words them
+//! for its users with [`Error::worded`] (the command line as `--max-iterations` and
+//! `--resolution 812`, Python as `max_iterations` and `resolution=812`).
 
 use std::fmt;
 use std::path::PathBuf;
@@ -47,12 +52,21 @@ pub enum Error {
         message: String,
     },
     /// The input parsed but cannot be used: an empty or flat mesh, NaN coordinates,
-    /// coincident constraints and the like.
+    /// coincident constraints, an option out of its range and the like.
     #[error("{context}: {message}")]
     Invalid {
         /// What was being processed: a file name, or a description such as "constraints".
         context: String,
         /// What was wrong.
+        message: String,
+    },
+    /// Work refused before it started: its memory estimate exceeds the limit (see
+    /// [`crate::memory`]).
+    #[error("{context}: {message}")]
+    Memory {
+        /// What was being processed (a file name) and what needs the memory.
+        context: String,
+        /// The estimate, the limit and the largest setting that fits.
         message: String,
     },
 }
@@ -78,5 +92,96 @@ impl Error {
     /// Input that parsed but cannot be used.
     pub fn invalid(context: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Invalid { context: context.into(), message: message.into() }
+    }
+
+    /// The error with `context` in front of its own, unless it names it already (a stage's
+    /// error, named after the file it came from).
+    pub fn in_context(self, context: &str) -> Self {
+        match self {
+            Error::Invalid { context: inner, message } if inner != context => {
+                Error::invalid(context, format!("{inner}: {message}"))
+            }
+            Error::Memory { context: inner, message } if inner != context => {
+                Error::Memory { context: format!("{context}: {inner}"), message }
+            }
+            other => other,
+        }
+    }
+
+    /// The message with the settings it names worded for a front end: every `` `name` `` or
+    /// `` `name=value` `` between backquotes, `name` a setting (lower case and underscores),
+    /// becomes what `front` calls it.
+    pub fn worded(&self, front: FrontEnd) -> String {
+        worded(&self.to_string(), front)
+    }
+}
+
+/// Who shows an error to its user, and so how it names the library's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrontEnd {
+    /// The command line: `--max-iterations`, `--resolution 812`.
+    Cli,
+    /// Python's keyword arguments: `max_iterations`, `resolution=812`.
+    Python,
+}
+
+impl FrontEnd {
+    /// `setting`, with `value` when given, as this front end spells it.
+    pub fn setting(self, setting: &str, value: Option<&str>) -> String {
+        match (self, value) {
+            (FrontEnd::Cli, None) => format!("--{}", setting.replace('_', "-")),
+            (FrontEnd::Cli, Some(v)) => format!("--{} {v}", setting.replace('_', "-")),
+            (FrontEnd::Python, None) => setting.to_string(),
+            (FrontEnd::Python, Some(v)) => format!("{setting}={v}"),
+        }
+    }
+}
+
+/// `message` (an error's, perhaps with context in front) with its backquoted settings worded
+/// for `front` (see [`Error::worded`]).
+pub fn worded(message: &str, front: FrontEnd) -> String {
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(start) = rest.find('`') {
+        let Some(len) = rest[start + 1..].find('`') else { break };
+        let quoted = &rest[start + 1..start + 1 + len];
+        let (name, value) = match quoted.split_once('=') {
+            Some((name, value)) => (name, Some(value)),
+            None => (quoted, None),
+        };
+        out.push_str(&rest[..start]);
+        if !name.is_empty() && name.bytes().all(|b| b.is_ascii_lowercase() || b == b'_') {
+            out.push_str(&front.setting(name, value));
+        } else {
+            out.push_str(&rest[start..start + len + 2]);
+        }
+        rest = &rest[start + len + 2..];
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settings_are_worded_for_each_front_end() {
+        let e = Error::invalid(
+            "bunny.obj",
+            "`max_iterations` must be at least 1; the largest that fits is `resolution=812`",
+        );
+        assert_eq!(
+            e.worded(FrontEnd::Cli),
+            "bunny.obj: --max-iterations must be at least 1; the largest that fits is \
+             --resolution 812"
+        );
+        assert_eq!(
+            e.worded(FrontEnd::Python),
+            "bunny.obj: max_iterations must be at least 1; the largest that fits is \
+             resolution=812"
+        );
+        let other = Error::invalid("a `Model` file", "an unmatched ` quote");
+        assert_eq!(other.worded(FrontEnd::Cli), other.to_string());
     }
 }

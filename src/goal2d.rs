@@ -284,7 +284,7 @@ pub fn density(
         return Err(Error::invalid(
             name,
             format!(
-                "no pixel is inside ({side} pixels are, at threshold {}); try --invert or another --threshold",
+                "no pixel is inside ({side} pixels are, at threshold {}); try `invert` or another `threshold`",
                 options.threshold
             ),
         ));
@@ -293,7 +293,7 @@ pub fn density(
         return Err(Error::invalid(
             name,
             format!(
-                "every pixel is inside ({side} pixels are, at threshold {}); try --invert or another --threshold",
+                "every pixel is inside ({side} pixels are, at threshold {}); try `invert` or another `threshold`",
                 options.threshold
             ),
         ));
@@ -331,14 +331,14 @@ pub fn density(
 fn check_options(options: &ImageOptions) -> Result<()> {
     if !(0.0..=1.0).contains(&options.threshold) {
         return Err(Error::invalid(
-            "--threshold",
-            format!("{} is outside [0, 1]", options.threshold),
+            "options",
+            format!("`threshold` {} is outside [0, 1]", options.threshold),
         ));
     }
     if !(0.0..=MAX_BLUR).contains(&options.blur) {
         return Err(Error::invalid(
-            "--blur",
-            format!("{} is outside [0, {MAX_BLUR}] pixels", options.blur),
+            "options",
+            format!("`blur` {} is outside [0, {MAX_BLUR}] pixels", options.blur),
         ));
     }
     Ok(())

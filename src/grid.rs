@@ -16,7 +16,8 @@ use crate::error::{Error, Result};
 use crate::geometry::{Aabb, DVec3};
 
 /// How large a grid to build around a shape.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Resolution {
     /// The number of voxels along the shape's longest axis, margins included; the other axes
     /// get as many as the shape needs with the same cubic voxels.
@@ -25,10 +26,15 @@ pub enum Resolution {
     Dims([usize; 3]),
 }
 
+impl Resolution {
+    /// The default voxels along the longest axis: 200, the paper's typical volume.
+    pub const DEFAULT_LONGEST_AXIS: usize = 200;
+}
+
 impl Default for Resolution {
-    /// 200 voxels along the longest axis, the paper's typical volume.
+    /// [`Resolution::DEFAULT_LONGEST_AXIS`] voxels along the longest axis.
     fn default() -> Self {
-        Resolution::LongestAxis(200)
+        Resolution::LongestAxis(Resolution::DEFAULT_LONGEST_AXIS)
     }
 }
 

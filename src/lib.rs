@@ -8,7 +8,8 @@
 //! evaluate it, polygonize it, render, combine and morph it.
 //!
 //! ## Quick start
-//! One call fits a mesh ([`fit_mesh`], or [`fit_file`] from a path); the model is a [`Field`]:
+//! One call fits a mesh ([`fit_mesh`], or [`fit_file`] from a path; [`pipeline::fit`] also
+//! writes the model, report and surface files); the model is a [`Field`]:
 //!
 //! ```
 //! use implicitize::{DVec3, Field, MeshFitOptions, Resolution, fit_mesh, mesh, polygonize_field};
@@ -18,8 +19,10 @@
 //! let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj");
 //! let (triceratops, _repairs) = mesh::read(&path)?;
 //!
-//! // Fit it on a small grid: 40 voxels along its longest axis, a few iterations.
-//! let mut options = MeshFitOptions { resolution: Resolution::LongestAxis(40), ..Default::default() };
+//! // Fit it on a small grid: 40 voxels along its longest axis, a few iterations. Options
+//! // start from the defaults and change field by field.
+//! let mut options = MeshFitOptions::default();
+//! options.resolution = Resolution::LongestAxis(40);
 //! options.fit.max_iterations = 6;
 //! let fitted = fit_mesh(&triceratops, &options)?;
 //! println!("E = {:.2} voxels", fitted.report.max_error_voxels);
@@ -39,7 +42,8 @@
 //! # }
 //! ```
 //!
-//! The same for the signed distance volume of a mesh: [`pipeline::signed_distance_of_mesh`].
+//! The signed distance volume of a mesh is [`pipeline::volume`]; every job of [`pipeline`]
+//! checks its options and its memory estimate before it allocates.
 //!
 //! ## Guarantees
 //! * **Sign:** inside is positive and outside negative, as in the paper, for every value this

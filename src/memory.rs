@@ -1,13 +1,14 @@
-//! Memory budgets: what a command will need, estimated before it allocates its grids, and
-//! checked against a limit, so a grid too large for the machine is refused with one clear line
-//! rather than ending in an allocation failure or the kernel's out-of-memory killer.
+//! Memory budgets: what a job will need, estimated before it allocates its grids, and checked
+//! against a limit, so a grid too large for the machine is refused with one clear line rather
+//! than ending in an allocation failure or the kernel's out-of-memory killer.
 //!
-//! The limit is by default what the machine can give ([`available`]): the kernel's estimate of
-//! the memory available to new work (`MemAvailable` in `/proc/meminfo`), and no more than this
-//! process's address-space limit (`ulimit -v`) leaves. The estimates are upper bounds of the
-//! peak resident memory measured on real meshes (see the README's table): so many bytes per
-//! voxel of each grid the work keeps, per triangle of the mesh, per pixel of a picture, plus a
-//! fixed allowance for the program itself.
+//! Every job of [`crate::pipeline`] takes a [`MemoryLimit`]: by default what the machine can
+//! give ([`available`]), the kernel's estimate of the memory available to new work
+//! (`MemAvailable` in `/proc/meminfo`), and no more than this process's address-space limit
+//! (`ulimit -v`) leaves. The estimates are upper bounds of the peak resident memory of the
+//! real jobs (a test measures them on real meshes): so many bytes per voxel of each grid the
+//! work keeps, per triangle of the mesh, per pixel of a picture, per constraint of a solve,
+//! plus a fixed allowance for the program itself.
 //!
 //! ```
 //! use implicitize::memory::{self, Estimate};
@@ -20,6 +21,7 @@
 //! ```
 
 use crate::error::{Error, Result};
+use crate::grid::Grid;
 
 /// The program itself, its thread stacks and the small tables of any command.
 const BASE: u64 = 64 << 20;
@@ -34,9 +36,14 @@ const VOLUME_PER_VOXEL: u64 = 10;
 /// the current surface's values, signed distance and flags, and the voxelization's (measured:
 /// 18 on the bunny from 128 to 256).
 const FIT_PER_VOXEL: u64 = 28;
-/// A fit's working set besides its grids: the solve (a dense factorization of up to 2,500
-/// constraints) and the constraints' tables.
-const FIT_SOLVE: u64 = 64 << 20;
+/// Bytes per matrix entry of a dense solve: the system's matrix and its factorization.
+const DENSE_PER_ENTRY: u64 = 16;
+/// Bytes per constraint of an iterative solve: the overlapping local blocks' factorizations
+/// (each leaf of 512 centres factored with as many neighbours: 8 MB a leaf), the Krylov
+/// directions and the treecode's tables.
+const ITERATIVE_PER_CONSTRAINT: u64 = 24 << 10;
+/// An iterative solve's coarse problem (at most 3,000 centres, factored) and its fixed tables.
+const ITERATIVE_BASE: u64 = 160 << 20;
 /// Bytes per voxel of polygonizing a field evaluated at every voxel (`--dense`): the f64
 /// values, the inside bits and the vertices of the surface.
 const DENSE_PER_VOXEL: u64 = 16;
@@ -61,10 +68,18 @@ impl Estimate {
         Estimate::grid(dims, VOLUME_PER_VOXEL, triangles)
     }
 
-    /// A fit of a mesh of `triangles` triangles (0 for a picture) on a grid of `dims` voxels.
+    /// A fit of a mesh of `triangles` triangles (0 for a picture) on a grid of `dims` voxels,
+    /// with room for a dense solve of the largest size ([`crate::rbf::DIRECT_MAX`]
+    /// constraints); [`Estimate::solve`] budgets larger ones as the fit grows.
     pub fn fit(dims: [usize; 3], triangles: usize) -> Estimate {
+        Estimate::fit_solving(dims, triangles, crate::rbf::DIRECT_MAX)
+    }
+
+    /// [`Estimate::fit`] with room for a solve of `constraints` constraints (3D): dense up to
+    /// [`crate::rbf::DIRECT_MAX`], iterative beyond.
+    pub fn fit_solving(dims: [usize; 3], triangles: usize, constraints: usize) -> Estimate {
         let grid = Estimate::grid(dims, FIT_PER_VOXEL, triangles);
-        Estimate { bytes: grid.bytes.saturating_add(FIT_SOLVE), ..grid }
+        Estimate { bytes: grid.bytes.saturating_add(solve_bytes(constraints)), ..grid }
     }
 
     /// Polygonizing a field on a grid of `dims` voxels, evaluating every voxel (`dense`) or
@@ -101,11 +116,12 @@ impl Estimate {
     }
 
     /// Checks the estimate against `limit` bytes. When it does not fit, `largest` names the
-    /// largest setting that does, such as `"--resolution 1234"`, for the message.
+    /// largest setting that does, as a backquoted setting such as `` "`resolution=1234`" ``
+    /// (see [`Error::worded`]), for the message.
     ///
     /// # Errors
-    /// One line naming what needs the memory, the estimate, the limit and, when given, the
-    /// largest setting that fits.
+    /// [`Error::Memory`]: one line naming what needs the memory, the estimate, the limit and,
+    /// when given, the largest setting that fits.
     pub fn check(&self, limit: u64, largest: impl FnOnce() -> Option<String>) -> Result<()> {
         if self.bytes <= limit {
             return Ok(());
@@ -114,15 +130,67 @@ impl Estimate {
             Some(setting) => format!("; the largest that fits is {setting}"),
             None => String::new(),
         };
-        Err(Error::invalid(
-            &self.what,
-            format!(
+        Err(Error::Memory {
+            context: self.what.clone(),
+            message: format!(
                 "needs about {}, which exceeds the memory limit of {} (set it with \
-                 --memory-limit){hint}",
+                 `memory_limit`){hint}",
                 show_size(self.bytes),
                 show_size(limit)
             ),
-        ))
+        })
+    }
+
+    /// [`Estimate::check`] for work on a grid placed at a resolution: when it does not fit,
+    /// the message names the largest `resolution` (voxels along the longest axis) whose
+    /// estimate, `at_resolution` (`None` where no grid can be placed), fits.
+    ///
+    /// # Errors
+    /// As [`Estimate::check`].
+    pub fn check_grid(
+        &self,
+        limit: u64,
+        at_resolution: impl Fn(usize) -> Option<u64>,
+    ) -> Result<()> {
+        self.check(limit, || {
+            largest_fitting(2 * Grid::MARGIN + 2..=Grid::MAX_AXIS, limit, at_resolution)
+                .map(|n| format!("`resolution={n}`"))
+        })
+    }
+}
+
+/// The solve of `constraints` constraints, without the program's own allowance.
+fn solve_bytes(constraints: usize) -> u64 {
+    let n = constraints as u64;
+    if constraints <= crate::rbf::DIRECT_MAX {
+        DENSE_PER_ENTRY.saturating_mul((n + 4) * (n + 4))
+    } else {
+        ITERATIVE_BASE.saturating_add(n.saturating_mul(ITERATIVE_PER_CONSTRAINT))
+    }
+}
+
+/// How much memory a job may use.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum MemoryLimit {
+    /// What the machine has available when the job starts ([`available`]).
+    #[default]
+    Available,
+    /// This many bytes.
+    Bytes(u64),
+}
+
+impl MemoryLimit {
+    /// The limit in bytes (no limit where the available memory cannot be read).
+    pub fn bytes(self) -> u64 {
+        match self {
+            MemoryLimit::Available => available().unwrap_or(u64::MAX),
+            MemoryLimit::Bytes(bytes) => bytes,
+        }
+    }
+
+    /// Each one's share when `jobs` jobs run at once under this limit.
+    pub fn share(self, jobs: usize) -> MemoryLimit {
+        MemoryLimit::Bytes(self.bytes() / jobs.max(1) as u64)
     }
 }
 
@@ -258,10 +326,10 @@ mod tests {
     #[test]
     fn a_refusal_names_the_estimate_the_limit_and_the_largest_setting() {
         let need = Estimate::volume([4096, 2000, 2000], 10);
-        let message = need.check(1 << 30, || Some("--resolution 400".into())).unwrap_err();
-        let message = message.to_string();
+        let message = need.check(1 << 30, || Some("`resolution=400`".into())).unwrap_err();
+        let message = message.worded(crate::error::FrontEnd::Cli);
         assert!(message.starts_with("a grid of 4096 x 2000 x 2000 voxels: needs about "));
-        assert!(message.contains("memory limit of 1.0 GB"), "{message}");
+        assert!(message.contains("memory limit of 1.0 GB (set it with --memory-limit)"));
         assert!(message.ends_with("the largest that fits is --resolution 400"), "{message}");
         assert!(need.check(u64::MAX, || None).is_ok());
     }

@@ -28,7 +28,7 @@ use crate::geometry::DVec3;
 use crate::grid::Volume;
 
 /// How the discrete radius of regularity is measured.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct RegularityOptions {
     /// The walk stops once the distance travelled exceeds the distance to the boundary by this
     /// much, in voxels (the paper's two-voxel tolerance for discretization errors).

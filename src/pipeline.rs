@@ -1,38 +1,54 @@
-//! The front door: from a mesh (or a mesh file) to a fitted model and its report in one call,
-//! and to the mesh's signed distance volume in another.
+//! The front door: every job a front end runs (the command line, `implicitize batch`, the
+//! Python package), with its options, their defaults and checks, and its memory budget, each
+//! written once here.
 //!
-//! The stages below are each available on their own ([`crate::grid`], [`crate::voxelize`],
-//! [`crate::distance`], [`crate::fit`], [`crate::model`]); this module chains them the one way
-//! the command-line tool, the tests and the examples all use:
+//! | job | options | function |
+//! |---|---|---|
+//! | fit a mesh and write what it made | [`MeshFitOptions`], [`FitOutputs`] | [`fit`] ([`fit_mesh`], [`fit_file`]) |
+//! | a mesh's densities or signed distance on a grid | [`VolumeOptions`] | [`volume`] |
+//! | polygonize a model's zero set | [`PolygonizeOptions`] | [`polygonize`] |
+//! | many meshes into one folder | [`crate::batch::BatchOptions`] | [`crate::batch::run`] |
+//!
+//! The options are `#[non_exhaustive]`: made with `Default::default()` and changed field by
+//! field, so a new setting breaks no caller. Each job checks its options and its memory
+//! estimate ([`crate::memory`]) against the caller's [`MemoryLimit`] before it allocates its
+//! grids, and refuses in one line ([`Error::Memory`]) naming the largest `resolution` that fits.
+//!
+//! The fit chains the stages one way:
 //!
 //! ```text
 //! mesh ──► Grid::around(bounds, resolution) ──► voxelize ──► Goal (signed distance, rreg)
-//!      ──► fit (iterative, paper 5; or naive, 3.2) ──► Model + FitReport
+//!      ──► fit (iterative, paper 5; or naive, 3.2) ──► Model + FitReport ──► files
 //! ```
 //!
-//! [`fit_mesh`] and [`fit_file`] do it all; [`Prepared`] splits it after the goal, for callers
-//! that need the grid before the fit starts (to draw each iteration) or the goal itself.
+//! [`Prepared`] splits it after the goal, for callers that need the grid before the fit starts
+//! or the goal itself; a [`FitObserver`] sees the same points of the chain from [`fit`].
 //!
 //! Units and signs are those of the crate: positions in the mesh's own units, errors in voxels
 //! of the grid, values positive inside. The same mesh, options and seed give the same model,
 //! bit for bit.
 
-use std::path::Path;
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+use serde::Serialize;
 
 use crate::distance;
 use crate::error::{Error, Result};
-use crate::fit::{self, FitOptions, FitReport, Goal, IterationReport};
+use crate::field::Field;
+use crate::fit::{self, FitOptions, FitReport, Goal, IterationReport, Termination};
 use crate::geometry::Aabb;
 use crate::grid::{Grid, Resolution, Volume};
+use crate::memory::{Estimate, MemoryLimit};
 use crate::mesh::{self, Mesh};
-use crate::metrics::RegularityOptions;
 use crate::model::Model;
 use crate::rbf::{Implicit, Isa};
-use crate::voxelize::{self, Ambiguity};
+use crate::voxelize::{self, Inside, VoxelizeOptions};
 
 /// How the constraints of a fit are made.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Method {
     /// The paper's iterative method (section 5).
     #[default]
@@ -42,41 +58,169 @@ pub enum Method {
     Naive,
 }
 
-/// Everything a fit of a mesh needs besides the mesh.
-#[derive(Debug, Clone, PartialEq)]
+impl std::str::FromStr for Method {
+    type Err = Error;
+
+    fn from_str(name: &str) -> Result<Method> {
+        match name {
+            "iterative" => Ok(Method::Iterative),
+            "naive" => Ok(Method::Naive),
+            other => Err(Error::invalid(
+                "options",
+                format!("`method` must be \"iterative\" or \"naive\", not {other:?}"),
+            )),
+        }
+    }
+}
+
+/// Everything a fit of a mesh needs besides the mesh. It serializes without the memory limit:
+/// what it records is what decides the model (see [`crate::batch`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+#[non_exhaustive]
 pub struct MeshFitOptions {
-    /// The voxel grid placed around the mesh (default: 200 voxels along its longest axis).
+    /// The voxel grid placed around the mesh (default:
+    /// [`Resolution::DEFAULT_LONGEST_AXIS`] voxels along its longest axis).
     pub resolution: Resolution,
     /// How the constraints are made.
     pub method: Method,
     /// The fit's thresholds and seed.
     pub fit: FitOptions,
     /// How the mesh is voxelized.
-    pub voxelize: voxelize::VoxelizeOptions,
+    pub voxelize: VoxelizeOptions,
+    /// The memory the fit may use.
+    #[serde(skip)]
+    pub memory_limit: MemoryLimit,
 }
 
-impl Default for MeshFitOptions {
-    fn default() -> Self {
-        MeshFitOptions {
-            resolution: Resolution::LongestAxis(200),
-            method: Method::default(),
-            fit: FitOptions::default(),
-            voxelize: voxelize::VoxelizeOptions::default(),
+impl MeshFitOptions {
+    /// Checks every setting (see [`FitOptions::check`] and [`VoxelizeOptions::check`]).
+    ///
+    /// # Errors
+    /// The first setting out of its range, named.
+    pub fn check(&self) -> Result<()> {
+        self.fit.check()?;
+        self.voxelize.check()
+    }
+}
+
+/// What a volume job ([`volume`]) needs besides the mesh.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct VolumeOptions {
+    /// The voxel grid placed around the mesh.
+    pub resolution: Resolution,
+    /// How the mesh is voxelized.
+    pub voxelize: VoxelizeOptions,
+    /// The memory the job may use.
+    pub memory_limit: MemoryLimit,
+}
+
+/// Which volume [`volume`] makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VolumeKind {
+    /// Densities in `[0, 1]`, 1 inside (paper 4.1).
+    Density,
+    /// The signed Euclidean distance of the voxelization, in voxels, inside positive (4.2).
+    SignedDistance,
+}
+
+/// What polygonizing a field ([`polygonize`]) needs besides the field.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct PolygonizeOptions {
+    /// The grid placed around the field's bounds.
+    pub resolution: Resolution,
+    /// Evaluate every voxel rather than follow the surface from the field's surface points:
+    /// slower, and also finds small detached pieces far from them.
+    pub dense: bool,
+    /// The memory the job may use.
+    pub memory_limit: MemoryLimit,
+}
+
+/// The files a fit writes, each atomically ([`crate::output`]); `None` writes nothing.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[non_exhaustive]
+pub struct FitOutputs {
+    /// The model file (JSON, with the report embedded without its running times).
+    pub model: Option<PathBuf>,
+    /// The fit report (JSON: the paper's Table 1 and 2 columns, per iteration too).
+    pub report: Option<PathBuf>,
+    /// The model's zero set polygonized on the fit's grid (OBJ, PLY, STL or OFF).
+    pub surface: Option<PathBuf>,
+    /// The goal's signed distance volume (NumPy, with its grid in a `.json` beside it).
+    pub sdf: Option<PathBuf>,
+}
+
+impl FitOutputs {
+    /// Checks, before any work, that every file can be written (its folder exists and takes
+    /// files) and that the surface has a mesh file's extension.
+    ///
+    /// # Errors
+    /// The first file that cannot be written, named.
+    pub fn check(&self) -> Result<()> {
+        if let Some(surface) = &self.surface {
+            mesh::Format::from_path(surface)?;
+        }
+        let sdf_grid = self.sdf.as_ref().map(|p| p.with_extension("json"));
+        let files = [&self.model, &self.report, &self.surface, &self.sdf, &sdf_grid];
+        files.into_iter().flatten().try_for_each(|path| crate::output::check_destination(path))
+    }
+}
+
+/// A mesh to fit: a file, or a mesh already in memory with the name its errors give it and
+/// the size of the file it came from, if any.
+#[derive(Debug, Clone, Copy)]
+pub enum MeshSource<'a> {
+    /// A mesh file (OBJ, PLY, STL or OFF), read by the job.
+    File(&'a Path),
+    /// A mesh in memory.
+    Mesh {
+        /// The mesh.
+        mesh: &'a Mesh,
+        /// Its name in errors, such as `"the mesh"`.
+        name: &'a str,
+        /// The size of the file it came from, for the report.
+        bytes: Option<u64>,
+    },
+}
+
+impl<'a> MeshSource<'a> {
+    /// The mesh, its name and its file's size.
+    fn read(self) -> Result<(Cow<'a, Mesh>, String, Option<u64>)> {
+        match self {
+            MeshSource::File(path) => {
+                let (mesh, _) = mesh::read(path)?;
+                let bytes = std::fs::metadata(path).ok().map(|m| m.len());
+                Ok((Cow::Owned(mesh), path.display().to_string(), bytes))
+            }
+            MeshSource::Mesh { mesh, name, bytes } => Ok((Cow::Borrowed(mesh), name.into(), bytes)),
         }
     }
 }
+
+/// What a caller of [`fit`] sees of the chain as it runs: the goal once it is made, and each
+/// iteration of the iterative method with its model (for progress lines and pictures).
+pub trait FitObserver {
+    /// The goal is made; the fit starts next.
+    fn prepared(&mut self, _prepared: &Prepared<'_>) {}
+    /// An iteration ended with `report` and its model.
+    fn iteration(&mut self, _report: &IterationReport, _implicit: &Implicit) {}
+}
+
+/// Sees nothing.
+impl FitObserver for () {}
 
 /// A fitted model and the report of its fit.
 #[derive(Debug, Clone)]
 pub struct Fitted {
     /// The model: the implicit function, the mesh's bounds and the grid it was fitted on. Its
-    /// embedded report is set by [`Fitted::save`].
+    /// embedded report is set by [`Fitted::finish`].
     pub model: Model,
     /// The fit's figures (the paper's Tables 1 and 2), running times included; the goal's
     /// voxelization and signed distance count as signed distance time, as in Table 2.
     pub report: FitReport,
     /// How the voxelization decided the mesh's inside.
-    pub inside: voxelize::Inside,
+    pub inside: Inside,
 }
 
 /// A mesh voxelized into its goal, ready to be fitted.
@@ -85,30 +229,57 @@ pub struct Prepared<'a> {
     mesh: &'a Mesh,
     bounds: Aabb,
     goal: Goal,
-    inside: voxelize::Inside,
+    inside: Inside,
     options: MeshFitOptions,
+    /// The memory the fit's grids leave for its solves.
+    limit: u64,
     goal_seconds: f64,
 }
 
-/// Fits `mesh` as `options` say: one call from a mesh to a model and its report.
+/// The whole chain: reads or takes the mesh, checks the options and the memory budget,
+/// voxelizes it into its goal, fits it, embeds the report in the model ([`Fitted::finish`])
+/// and writes `outputs`. `observer` sees the goal and each iteration.
 ///
 /// # Errors
-/// A mesh without triangles or a grid that cannot be placed around it (see [`Grid::around`]),
-/// and what the fit's solve reports.
-pub fn fit_mesh(mesh: &Mesh, options: &MeshFitOptions) -> Result<Fitted> {
-    Prepared::new(mesh, "the mesh", options)?.fit(|_, _| {})
+/// A file that cannot be written (checked before any work), the mesh's errors, an option out
+/// of range, a refusal of the memory budget, and what the fit's solve reports.
+pub fn fit(
+    source: MeshSource<'_>,
+    options: &MeshFitOptions,
+    outputs: &FitOutputs,
+    observer: &mut dyn FitObserver,
+) -> Result<Fitted> {
+    outputs.check()?;
+    options.check()?;
+    let (mesh, name, bytes) = source.read()?;
+    let prepared = Prepared::new(&mesh, &name, options)?;
+    observer.prepared(&prepared);
+    if let Some(path) = &outputs.sdf {
+        prepared.goal().sd.save_npy(path)?;
+    }
+    let mut fitted = prepared.fit(|report, implicit| observer.iteration(report, implicit))?;
+    fitted.report.mesh_bytes = bytes;
+    fitted.finish();
+    fitted.write(outputs)?;
+    Ok(fitted)
 }
 
-/// Reads the mesh file at `path` (OBJ, PLY, STL or OFF) and fits it; the report records the
-/// file's size. Every error names the file.
+/// Fits `mesh` as `options` say and writes nothing: [`fit`] on a mesh in memory.
 ///
 /// # Errors
-/// As [`mesh::read`] and [`fit_mesh`].
+/// As [`fit`].
+pub fn fit_mesh(mesh: &Mesh, options: &MeshFitOptions) -> Result<Fitted> {
+    let source = MeshSource::Mesh { mesh, name: "the mesh", bytes: None };
+    fit(source, options, &FitOutputs::default(), &mut ())
+}
+
+/// Reads the mesh file at `path` (OBJ, PLY, STL or OFF) and fits it, writing nothing: [`fit`]
+/// on a file. Every error names the file.
+///
+/// # Errors
+/// As [`fit`].
 pub fn fit_file(path: &Path, options: &MeshFitOptions) -> Result<Fitted> {
-    let (mesh, _) = mesh::read(path)?;
-    let mut fitted = Prepared::new(&mesh, &path.display().to_string(), options)?.fit(|_, _| {})?;
-    fitted.report.mesh_bytes = std::fs::metadata(path).ok().map(|m| m.len());
-    Ok(fitted)
+    fit(MeshSource::File(path), options, &FitOutputs::default(), &mut ())
 }
 
 /// The grid `resolution` places around `mesh`. `source` names the mesh in errors.
@@ -117,100 +288,117 @@ pub fn fit_file(path: &Path, options: &MeshFitOptions) -> Result<Fitted> {
 /// A mesh without triangles, and the errors of [`Grid::around`].
 pub fn grid_around(mesh: &Mesh, resolution: Resolution, source: &str) -> Result<Grid> {
     let bounds = mesh_bounds(mesh, source)?;
-    Grid::around(&bounds, resolution).map_err(naming(source))
+    Grid::around(&bounds, resolution).map_err(|e| e.in_context(source))
 }
 
-/// The goal of a fit of `mesh` on the grid `resolution` places around it: the voxelized mesh,
-/// its signed distance, boundary voxels and radii of regularity (paper 4). `source` names the
-/// mesh in errors.
-///
-/// # Errors
-/// As [`grid_around`] and [`voxelize::voxelize`].
-pub fn goal_of_mesh(
-    mesh: &Mesh,
+/// The grid `resolution` places around `bounds`, once `estimate` of the work on it fits in
+/// `limit` bytes; a refusal names the largest resolution that fits.
+fn checked_grid(
+    bounds: &Aabb,
     resolution: Resolution,
-    options: &voxelize::VoxelizeOptions,
-    regularity: &RegularityOptions,
-    source: &str,
-) -> Result<Goal> {
-    let grid = grid_around(mesh, resolution, source)?;
-    let density = voxelize::voxelize(mesh, &grid, options).map_err(naming(source))?;
-    Ok(Goal::from_density(density, regularity))
+    limit: u64,
+    estimate: impl Fn(&Grid) -> Estimate,
+) -> Result<Grid> {
+    let grid = Grid::around(bounds, resolution)?;
+    estimate(&grid).check_grid(limit, |n| {
+        let grid = Grid::around(bounds, Resolution::LongestAxis(n)).ok()?;
+        Some(estimate(&grid).bytes)
+    })?;
+    Ok(grid)
 }
 
-/// The signed Euclidean distance of `mesh`'s voxelization on the grid `resolution` places
-/// around it, in voxels, inside positive (paper 4.2). `source` names the mesh in errors.
+/// The densities or the signed distance of `mesh` on the grid `options.resolution` places
+/// around it, and how its inside was decided. `source` names the mesh in errors. The signed
+/// distance is in voxels, inside positive (paper 4.2).
 ///
 /// # Errors
-/// As [`grid_around`] and [`voxelize::voxelize`].
-pub fn signed_distance_of_mesh(
+/// A mesh without triangles, a grid that cannot be placed or does not fit in the memory
+/// limit, and the errors of [`voxelize::voxelize`].
+pub fn volume(
     mesh: &Mesh,
-    resolution: Resolution,
-    options: &voxelize::VoxelizeOptions,
     source: &str,
-) -> Result<Volume<f32>> {
-    signed_distance_reporting(mesh, resolution, options, source).map(|(volume, _)| volume)
+    kind: VolumeKind,
+    options: &VolumeOptions,
+) -> Result<(Volume<f32>, Inside)> {
+    options.voxelize.check()?;
+    let bounds = mesh_bounds(mesh, source)?;
+    let limit = options.memory_limit.bytes();
+    let triangles = mesh.triangles.len();
+    let grid =
+        checked_grid(&bounds, options.resolution, limit, |g| Estimate::volume(g.dims, triangles))
+            .map_err(|e| e.in_context(source))?;
+    let voxelized =
+        voxelize::voxelize(mesh, &grid, &options.voxelize).map_err(|e| e.in_context(source))?;
+    let volume = match kind {
+        VolumeKind::Density => voxelized.density,
+        VolumeKind::SignedDistance => {
+            let inside = distance::inside(&voxelized.density);
+            drop(voxelized.density);
+            distance::signed_distance(&inside)
+        }
+    };
+    Ok((volume, voxelized.inside))
 }
 
-/// [`signed_distance_of_mesh`], and how much of the grid has no trustworthy inside.
+/// The zero set of `field` (inside positive) polygonized on the grid `options.resolution`
+/// places around `bounds` (see [`crate::polygonize::polygonize_field`] and
+/// [`crate::polygonize::polygonize_field_dense`]). `source` names the field in errors.
 ///
 /// # Errors
-/// As [`signed_distance_of_mesh`].
-pub fn signed_distance_reporting(
-    mesh: &Mesh,
-    resolution: Resolution,
-    options: &voxelize::VoxelizeOptions,
+/// A grid that cannot be placed or does not fit in the memory limit.
+pub fn polygonize<F: Field + ?Sized>(
+    field: &F,
+    bounds: &Aabb,
     source: &str,
-) -> Result<(Volume<f32>, Ambiguity)> {
-    let grid = grid_around(mesh, resolution, source)?;
-    let (density, ambiguity) =
-        voxelize::voxelize_reporting(mesh, &grid, options).map_err(naming(source))?;
-    let inside = distance::inside(&density);
-    drop(density);
-    Ok((distance::signed_distance(&inside), ambiguity))
+    options: &PolygonizeOptions,
+) -> Result<Mesh> {
+    let limit = options.memory_limit.bytes();
+    let grid = checked_grid(bounds, options.resolution, limit, |g| {
+        Estimate::polygonize(g.dims, options.dense)
+    })
+    .map_err(|e| e.in_context(source))?;
+    Ok(if options.dense {
+        crate::polygonize::polygonize_field_dense(field, &grid)
+    } else {
+        crate::polygonize::polygonize_field(field, &grid)
+    })
 }
 
 fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
     mesh.bounds().ok_or_else(|| Error::invalid(source, "the mesh has no triangles"))
 }
 
-/// Puts the mesh's name in front of a stage's error that does not name it yet.
-fn naming(source: &str) -> impl Fn(Error) -> Error + '_ {
-    move |e| match e {
-        Error::Invalid { context, message } if context != source => {
-            Error::invalid(source, format!("{context}: {message}"))
-        }
-        other => other,
-    }
-}
-
 impl<'a> Prepared<'a> {
-    /// Places the grid around `mesh`, voxelizes it and computes the goal (signed distance,
-    /// boundary voxels, radii of regularity). `source` names the mesh in errors.
+    /// Places the grid around `mesh`, checks the fit's memory estimate on it, voxelizes the
+    /// mesh and computes the goal (signed distance, boundary voxels, radii of regularity).
+    /// `source` names the mesh in errors.
     ///
     /// # Errors
-    /// An `IMPLICITIZE_ISA` this CPU cannot run ([`Isa::from_env`]), and the errors of
-    /// [`grid_around`] and [`voxelize::voxelize`].
+    /// An `IMPLICITIZE_ISA` this CPU cannot run ([`Isa::from_env`]), an option out of range, a
+    /// grid that cannot be placed or does not fit in the memory limit, and the errors of
+    /// [`voxelize::voxelize`].
     pub fn new(mesh: &'a Mesh, source: &str, options: &MeshFitOptions) -> Result<Prepared<'a>> {
         Isa::from_env()?;
+        options.check()?;
         let bounds = mesh_bounds(mesh, source)?;
+        let limit = options.memory_limit.bytes();
+        let triangles = mesh.triangles.len();
         let clock = Instant::now();
-        let grid = Grid::around(&bounds, options.resolution).map_err(naming(source))?;
-        let (density, inside) = voxelize::voxelize_with_inside(mesh, &grid, &options.voxelize)
-            .map_err(naming(source))?;
-        let goal = Goal::from_density(density, &options.fit.regularity);
+        let grid =
+            checked_grid(&bounds, options.resolution, limit, |g| Estimate::fit(g.dims, triangles))
+                .map_err(|e| e.in_context(source))?;
+        let voxelized =
+            voxelize::voxelize(mesh, &grid, &options.voxelize).map_err(|e| e.in_context(source))?;
+        let goal = Goal::from_density(voxelized.density, &options.fit.regularity);
         let goal_seconds = clock.elapsed().as_secs_f64();
-        Ok(Prepared { mesh, bounds, goal, inside, options: options.clone(), goal_seconds })
+        let inside = voxelized.inside;
+        let options = options.clone();
+        Ok(Prepared { mesh, bounds, goal, inside, options, limit, goal_seconds })
     }
 
     /// How the voxelization decided the mesh's inside.
-    pub fn inside(&self) -> voxelize::Inside {
+    pub fn inside(&self) -> Inside {
         self.inside
-    }
-
-    /// How much of the grid has a winding number near one half (no trustworthy inside).
-    pub fn ambiguity(&self) -> Ambiguity {
-        self.inside.ambiguity
     }
 
     /// The grid the mesh was voxelized on.
@@ -228,23 +416,55 @@ impl<'a> Prepared<'a> {
         &self.goal
     }
 
+    /// The goal, for callers that stop before the fit (pictures of the goal).
+    pub fn into_goal(self) -> Goal {
+        self.goal
+    }
+
     /// Runs the fit. `on_iteration` is called after each iteration of the iterative method
     /// with its figures and its model (for progress lines and pictures); the naive method
     /// solves once and does not call it.
     ///
+    /// The constraints are capped where their solve would pass the memory limit: a fit that
+    /// reaches that cap ends there ([`Termination::MemoryLimit`]) with its best model.
+    ///
     /// # Errors
     /// What the fit's solve reports (see [`fit::fit`]).
     pub fn fit(self, on_iteration: impl FnMut(&IterationReport, &Implicit)) -> Result<Fitted> {
+        let mut options = self.options.fit.clone();
+        let requested = match self.options.method {
+            Method::Iterative => options.constraint_limit(),
+            Method::Naive => options.max_constraints.unwrap_or(fit::naive::DEFAULT_CONSTRAINTS),
+        };
+        let allowed = self.constraints_within_memory(requested);
+        options.max_constraints = Some(allowed);
         let fitted = match self.options.method {
-            Method::Iterative => fit::fit(&self.goal, &self.options.fit, on_iteration)?,
-            Method::Naive => fit::naive::fit(self.mesh, &self.goal, &self.options.fit)?,
+            Method::Iterative => fit::fit(&self.goal, &options, on_iteration)?,
+            Method::Naive => fit::naive::fit(self.mesh, &self.goal, &options)?,
         };
         let mut report = fitted.report;
+        if allowed < requested
+            && report.termination == (Termination::ConstraintLimit { limit: allowed })
+        {
+            report.termination = Termination::MemoryLimit { constraints: allowed };
+        }
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
         report.winding_near_half = Some(self.inside.winding_near_half);
         let model = Model::from_implicit(fitted.implicit, self.bounds, Some(*self.goal.grid()));
         Ok(Fitted { model, report, inside: self.inside })
+    }
+
+    /// The most constraints, up to `requested`, whose solve fits in the memory limit beside the
+    /// fit's grids (never fewer than a dense solve's, which the grid's check made room for).
+    fn constraints_within_memory(&self, requested: usize) -> usize {
+        let dims = self.goal.grid().dims;
+        let triangles = self.mesh.triangles.len();
+        let floor = requested.min(crate::rbf::DIRECT_MAX);
+        crate::memory::largest_fitting(floor..=requested, self.limit, |n| {
+            Some(Estimate::fit_solving(dims, triangles, n).bytes)
+        })
+        .unwrap_or(floor)
     }
 }
 
@@ -259,13 +479,25 @@ impl Fitted {
         self.model.set_report(without_timings(&self.report));
     }
 
-    /// Writes the model file with its report embedded ([`Fitted::finish`]).
+    /// Writes the model, the report and the surface `outputs` name (not the signed distance,
+    /// which only [`fit`] has), each atomically.
     ///
     /// # Errors
-    /// The file cannot be written.
-    pub fn save(&mut self, path: &Path) -> Result<()> {
-        self.finish();
-        self.model.save(path)
+    /// A file that cannot be written.
+    pub fn write(&self, outputs: &FitOutputs) -> Result<()> {
+        if let Some(path) = &outputs.model {
+            self.model.save(path)?;
+        }
+        if let Some(path) = &outputs.report {
+            let report =
+                serde_json::to_string_pretty(&self.report).expect("a report always serializes");
+            crate::output::write_bytes(path, format!("{report}\n").as_bytes())?;
+        }
+        if let (Some(path), Some(grid)) = (&outputs.surface, self.model.grid()) {
+            let surface = crate::polygonize::polygonize_field(&self.model, grid);
+            mesh::write(path, &surface)?;
+        }
+        Ok(())
     }
 }
 

@@ -9,12 +9,18 @@ use implicitize::{DVec3, Field, Grid, Mesh, Resolution, polygonize, voxelize};
 
 /// Fits `mesh` at `resolution` with `options`, through the front door.
 fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> Fitted {
-    let options = MeshFitOptions {
-        resolution: Resolution::LongestAxis(resolution),
-        fit: options.clone(),
-        ..MeshFitOptions::default()
-    };
+    let mut mesh_options = MeshFitOptions::default();
+    mesh_options.resolution = Resolution::LongestAxis(resolution);
+    mesh_options.fit = options.clone();
+    let options = mesh_options;
     pipeline::fit_mesh(mesh, &options).unwrap()
+}
+
+/// The default options with an iteration limit.
+fn with_iterations(max_iterations: usize) -> FitOptions {
+    let mut options = FitOptions::default();
+    options.max_iterations = max_iterations;
+    options
 }
 
 /// The largest distances, in voxels of the fit's grid, from the polygonized model to `mesh`
@@ -54,7 +60,7 @@ fn a_torus_is_fitted_within_two_voxels() {
 #[test]
 fn the_polygonized_fit_is_as_close_to_the_mesh_as_the_report_says() {
     let torus = common::torus(2.0, 0.7, 96, 48);
-    let options = FitOptions { max_iterations: 1, ..FitOptions::default() };
+    let options = with_iterations(1);
     let fitted = fit_mesh(&torus, 64, &options);
     let reported = f64::from(fitted.report.max_error_voxels);
     assert!(reported > 2.0, "the initial model's E = {reported} is above the target");
@@ -66,11 +72,13 @@ fn the_polygonized_fit_is_as_close_to_the_mesh_as_the_report_says() {
 #[test]
 fn the_same_seed_gives_the_same_model_and_another_seed_another() {
     let torus = common::torus(2.0, 0.7, 64, 32);
-    let options = FitOptions { max_iterations: 4, ..FitOptions::default() };
+    let options = with_iterations(4);
     let a = fit_mesh(&torus, 48, &options);
     let b = fit_mesh(&torus, 48, &options);
     assert_eq!(format!("{:?}", a.model.implicit()), format!("{:?}", b.model.implicit()));
-    let c = fit_mesh(&torus, 48, &FitOptions { seed: 7, ..options });
+    let mut other = options.clone();
+    other.seed = 7;
+    let c = fit_mesh(&torus, 48, &other);
     assert_ne!(format!("{:?}", a.model.implicit()), format!("{:?}", c.model.implicit()));
 }
 
@@ -81,7 +89,7 @@ fn a_scaled_and_moved_mesh_gives_the_same_fit_in_voxels() {
         vertices: torus.vertices.iter().map(|&v| v * 1000.0 + DVec3::new(1e5, -2e5, 3e5)).collect(),
         triangles: torus.triangles.clone(),
     };
-    let options = FitOptions { max_iterations: 6, ..FitOptions::default() };
+    let options = with_iterations(6);
     let near_fit = fit_mesh(&torus, 48, &options);
     let far_fit = fit_mesh(&far, 48, &options);
     let (a, b) = (&near_fit.report, &far_fit.report);
@@ -102,7 +110,7 @@ fn a_scaled_and_moved_mesh_gives_the_same_fit_in_voxels() {
 fn points_near_the_goal_project_onto_its_surface() {
     let sphere = common::sphere(DVec3::ZERO, 1.0, 48, 96);
     let grid = Grid::around(&sphere.bounds().unwrap(), Resolution::LongestAxis(48)).unwrap();
-    let density = voxelize::voxelize(&sphere, &grid, &Default::default()).unwrap();
+    let density = voxelize::voxelize(&sphere, &grid, &Default::default()).unwrap().density;
     let goal = Goal::from_density(density, &FitOptions::default().regularity);
     let centre = grid.to_grid(DVec3::ZERO);
     let radius = 1.0 / grid.voxel_size;
@@ -130,7 +138,7 @@ fn points_where_the_densities_saturate_project_onto_the_surface() {
     let (triceratops, _) = implicitize::mesh::read(std::path::Path::new(path)).unwrap();
     let bounds = triceratops.bounds().unwrap();
     let grid = Grid::around(&bounds, Resolution::LongestAxis(320)).unwrap();
-    let density = voxelize::voxelize(&triceratops, &grid, &Default::default()).unwrap();
+    let density = voxelize::voxelize(&triceratops, &grid, &Default::default()).unwrap().density;
     let goal = Goal::from_density(density, &FitOptions::default().regularity);
     let (mut lost, mut far, mut total) = (0, 0, 0);
     for &s in goal.surface.iter().step_by(7) {
@@ -174,12 +182,10 @@ fn two_separate_spheres_are_both_found() {
 #[test]
 fn the_naive_method_is_measured_the_same_way() {
     let torus = common::torus(2.0, 0.7, 64, 32);
-    let options = MeshFitOptions {
-        resolution: Resolution::LongestAxis(48),
-        method: Method::Naive,
-        fit: FitOptions { max_constraints: 400, ..FitOptions::default() },
-        ..MeshFitOptions::default()
-    };
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(48);
+    options.method = Method::Naive;
+    options.fit.max_constraints = Some(400);
     let naive = pipeline::fit_mesh(&torus, &options).unwrap();
     let report = &naive.report;
     assert_eq!(report.iterations, 1);
@@ -208,8 +214,8 @@ fn the_grid_evaluation_finds_every_sign_of_each_triceratops_model() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj");
     let (mesh, _) = implicitize::mesh::read(&path).unwrap();
     let grid = Grid::around(&mesh.bounds().unwrap(), Resolution::LongestAxis(96)).unwrap();
-    let density = voxelize::voxelize(&mesh, &grid, &Default::default()).unwrap();
-    let options = FitOptions { max_iterations: 12, ..FitOptions::default() };
+    let density = voxelize::voxelize(&mesh, &grid, &Default::default()).unwrap().density;
+    let options = with_iterations(12);
     let goal = Goal::from_density(density, &options.regularity);
     let points: Vec<DVec3> = (0..grid.len()).map(|v| grid.position(grid.voxel(v))).collect();
     let mut models = 0;
@@ -270,12 +276,14 @@ fn a_large_grid_starts_at_half_the_resolution() {
     assert!(coarse.last().unwrap().max_error_voxels <= 2.0 * 2.5);
     assert!(coarse[0].max_error_voxels > report.max_error_voxels);
 
-    let limited = FitOptions { max_iterations: 5, ..options.clone() };
+    let mut limited = options.clone();
+    limited.max_iterations = 5;
     let short = fit_mesh(&torus, 128, &limited);
     assert!(short.report.iterations <= 5);
     assert_eq!(short.report.per_iteration.last().unwrap().grid, GridLevel::Full);
 
-    let full = FitOptions { coarse_start_min_axis: usize::MAX, ..limited };
+    let mut full = limited;
+    full.coarse_start = false;
     let fine = fit_mesh(&torus, 128, &full);
     assert!(fine.report.per_iteration.iter().all(|i| i.grid == GridLevel::Full));
 }

@@ -7,7 +7,6 @@ mod topology;
 use std::sync::OnceLock;
 
 use implicitize::csg::{Child, Composite, Operation};
-use implicitize::fit::FitOptions;
 use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions, Similarity};
 use implicitize::rbf::{Constraint, Implicit, Kernel};
@@ -15,11 +14,9 @@ use implicitize::{Aabb, DVec3, Field, Grid, Mesh, MeshFitOptions, Resolution, po
 
 /// Fits `mesh` at a small resolution.
 fn fitted(mesh: &Mesh) -> Model {
-    let options = MeshFitOptions {
-        resolution: Resolution::LongestAxis(40),
-        fit: FitOptions { max_iterations: 12, ..FitOptions::default() },
-        ..MeshFitOptions::default()
-    };
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(40);
+    options.fit.max_iterations = 12;
     implicitize::fit_mesh(mesh, &options).unwrap().model
 }
 

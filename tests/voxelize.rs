@@ -126,7 +126,7 @@ fn grid_for(mesh: &Mesh, n: usize) -> Grid {
 }
 
 fn solid(mesh: &Mesh, grid: &Grid) -> Volume<bool> {
-    inside(&voxelize(mesh, grid, &VoxelizeOptions::default()).unwrap())
+    inside(&voxelize(mesh, grid, &VoxelizeOptions::default()).unwrap().density)
 }
 
 /// Checks `got` against an analytic signed distance (in mesh units, inside positive) at every
@@ -158,7 +158,7 @@ fn a_sphere_is_solid_and_its_densities_add_up_to_its_volume() {
     let (c, r) = (DVec3::new(1.0, 2.0, 3.0), 2.0);
     let mesh = sphere(c, r, 4);
     let grid = grid_for(&mesh, 40);
-    let density = voxelize(&mesh, &grid, &VoxelizeOptions::default()).unwrap();
+    let density = voxelize(&mesh, &grid, &VoxelizeOptions::default()).unwrap().density;
     assert!(check_against(&inside(&density), sphere_distance(c, r)) > 40 * 40 * 30);
     assert!(density.data.iter().all(|&d| (0.0..=1.0).contains(&d)));
     let fractional: Vec<usize> =
@@ -263,8 +263,8 @@ fn scaled_and_moved_meshes_give_the_same_volume_voxel_for_voxel() {
     let (g1, g2) = (grid_for(&mesh, 36), grid_for(&far, 36));
     assert_eq!(g1.dims, g2.dims);
     let (v1, v2) = (
-        voxelize(&mesh, &g1, &VoxelizeOptions::default()).unwrap(),
-        voxelize(&far, &g2, &VoxelizeOptions::default()).unwrap(),
+        voxelize(&mesh, &g1, &VoxelizeOptions::default()).unwrap().density,
+        voxelize(&far, &g2, &VoxelizeOptions::default()).unwrap().density,
     );
     assert_eq!(v1.data, v2.data);
 }
@@ -273,9 +273,11 @@ fn scaled_and_moved_meshes_give_the_same_volume_voxel_for_voxel() {
 fn supersampling_one_gives_binary_densities_and_the_same_centres() {
     let mesh = sphere(DVec3::ZERO, 1.0, 3);
     let grid = grid_for(&mesh, 30);
-    let binary = voxelize(&mesh, &grid, &VoxelizeOptions { supersampling: 1 }).unwrap();
+    let binary =
+        voxelize(&mesh, &grid, &VoxelizeOptions::default().with_supersampling(1)).unwrap().density;
     assert!(binary.data.iter().all(|&d| d == 0.0 || d == 1.0));
-    let fine = voxelize(&mesh, &grid, &VoxelizeOptions { supersampling: 5 }).unwrap();
+    let fine =
+        voxelize(&mesh, &grid, &VoxelizeOptions::default().with_supersampling(5)).unwrap().density;
     assert!(fine.data.iter().any(|&d| d > 0.0 && d < 1.0));
     check_against(&inside(&binary), sphere_distance(DVec3::ZERO, 1.0));
     check_against(&inside(&fine), sphere_distance(DVec3::ZERO, 1.0));
@@ -309,8 +311,8 @@ fn bad_input_is_an_error_not_a_panic() {
     let mut bad = good.clone();
     bad.triangles[5][1] = 10_000;
     assert!(run(&bad, o).contains("triangle 5"));
-    assert!(run(&good, VoxelizeOptions { supersampling: 4 }).contains("supersampling"));
-    assert!(run(&good, VoxelizeOptions { supersampling: 0 }).contains("supersampling"));
+    assert!(run(&good, VoxelizeOptions::default().with_supersampling(4)).contains("supersampling"));
+    assert!(run(&good, VoxelizeOptions::default().with_supersampling(0)).contains("supersampling"));
     let empty = Grid { dims: [0, 4, 4], ..grid };
     assert!(voxelize(&good, &empty, &o).is_err());
 }
@@ -321,7 +323,7 @@ fn surface_points_of_a_voxelized_sphere_lie_on_it() {
     let (c, r) = (DVec3::new(-4.0, 7.0, 1.0), 3.0);
     let mesh = sphere(c, r, 5);
     let grid = grid_for(&mesh, 48);
-    let density = voxelize(&mesh, &grid, &VoxelizeOptions::default()).unwrap();
+    let density = voxelize(&mesh, &grid, &VoxelizeOptions::default()).unwrap().density;
     let boundary = boundary_voxels(&signed_distance(&inside(&density)));
     assert!(boundary.len() > 2000);
     let errors: Vec<f64> = boundary

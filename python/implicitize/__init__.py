@@ -7,6 +7,11 @@ Meshes are given as a path (OBJ, PLY, STL or OFF), as ``(vertices, faces)`` arra
 object with ``.vertices`` and ``.faces`` (a ``trimesh.Trimesh``). Values are positive inside
 and negative outside, positions in the mesh's own units, errors in voxels.
 
+Every keyword left at ``None`` takes the library's default (``DEFAULTS`` lists them). Work whose
+memory estimate exceeds ``memory_limit`` (bytes, or a size such as ``"2G"``; by default what the
+machine has available) raises ``MemoryError`` before it allocates, naming the largest
+``resolution`` that fits.
+
 >>> import implicitize, numpy as np
 >>> model = implicitize.fit("bunny.obj", resolution=100)        # doctest: +SKIP
 >>> model(np.zeros((1, 3)))                                     # doctest: +SKIP
@@ -14,19 +19,21 @@ and negative outside, positions in the mesh's own units, errors in voxels.
 
 from __future__ import annotations
 
-import os
-from dataclasses import dataclass
+import os as _os
+from dataclasses import dataclass as _dataclass
 from typing import Any, Optional, Sequence, Tuple, Union
 
-import numpy as np
+import numpy as _np
 
 from ._implicitize import Model
 from ._implicitize import csg as _csg
+from ._implicitize import defaults as _defaults
 from ._implicitize import fit as _fit
 from ._implicitize import load as _load
 from ._implicitize import volume as _volume
 
 __all__ = [
+    "DEFAULTS",
     "Model",
     "Volume",
     "voxelize",
@@ -38,8 +45,18 @@ __all__ = [
     "difference",
 ]
 
+#: The library's defaults of the keywords left at ``None`` (``resolution``, ``target_error``,
+#: ``seed``, ``max_iterations``, ``max_constraints``, ``naive_max_constraints``, ``method``).
+DEFAULTS = dict(_defaults())
 
-@dataclass(frozen=True)
+_Memory = Union[int, str, None]
+
+
+def __dir__() -> list:
+    return sorted(__all__)
+
+
+@_dataclass(frozen=True)
 class Volume:
     """A volume on a voxel grid, as the CLI writes it (``.npy`` and its ``.json``).
 
@@ -47,7 +64,7 @@ class Volume:
     ``origin + voxel_size * (i, j, k)``, in mesh units.
     """
 
-    values: np.ndarray
+    values: _np.ndarray
     origin: Tuple[float, float, float]
     voxel_size: float
 
@@ -60,8 +77,8 @@ class Volume:
 
 def _mesh_arg(mesh: Any) -> Any:
     """A path as a string, or ``(vertices, faces)`` as float64 and int64 arrays."""
-    if isinstance(mesh, (str, os.PathLike)):
-        return os.fspath(mesh)
+    if isinstance(mesh, (str, _os.PathLike)):
+        return _os.fspath(mesh)
     if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
         vertices, faces = mesh.vertices, mesh.faces
     elif isinstance(mesh, (tuple, list)) and len(mesh) == 2:
@@ -72,84 +89,111 @@ def _mesh_arg(mesh: Any) -> Any:
             f".vertices and .faces, not {type(mesh).__name__}"
         )
     try:
-        vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+        vertices = _np.ascontiguousarray(vertices, dtype=_np.float64)
     except (TypeError, ValueError) as e:
         raise ValueError(f"vertices: not an array of numbers: {e}") from None
-    faces = np.asarray(faces)
-    if faces.size and not np.issubdtype(faces.dtype, np.integer):
+    faces = _np.asarray(faces)
+    if faces.size and not _np.issubdtype(faces.dtype, _np.integer):
         raise ValueError(f"faces: expected integer vertex indices, got {faces.dtype}")
-    return vertices, np.ascontiguousarray(faces, dtype=np.int64)
+    return vertices, _np.ascontiguousarray(faces, dtype=_np.int64)
 
 
 def _grid_args(resolution: Optional[int], dims: Optional[Sequence[int]]) -> Any:
     return resolution, (None if dims is None else [int(d) for d in dims])
 
 
+def _documented(function: Any) -> Any:
+    """Fills the library's defaults into ``function``'s docstring."""
+    function.__doc__ = function.__doc__.format(**DEFAULTS)
+    return function
+
+
+@_documented
 def voxelize(
-    mesh: Any, resolution: Optional[int] = None, dims: Optional[Sequence[int]] = None
+    mesh: Any,
+    resolution: Optional[int] = None,
+    dims: Optional[Sequence[int]] = None,
+    *,
+    memory_limit: _Memory = None,
 ) -> Volume:
     """Densities in [0, 1], 1 inside (paper 4.1), as ``implicitize voxelize``.
 
-    ``resolution`` voxels along the mesh's longest axis, margins included (default 200), or
-    an exact ``dims=(nx, ny, nz)``.
-    """
-    values, origin, voxel_size = _volume(_mesh_arg(mesh), "density", *_grid_args(resolution, dims))
-    return Volume(values, origin, voxel_size)
-
-
-def signed_distance(
-    mesh: Any, resolution: Optional[int] = None, dims: Optional[Sequence[int]] = None
-) -> Volume:
-    """The signed Euclidean distance in voxels, inside positive (paper 4.2), as ``implicitize sdf``.
-
-    ``resolution`` and ``dims`` as in :func:`voxelize`.
+    ``resolution`` voxels along the mesh's longest axis, margins included (default
+    {resolution}), or an exact ``dims=(nx, ny, nz)``; ``memory_limit`` in bytes or as ``"2G"``
+    (default: the available memory).
     """
     values, origin, voxel_size = _volume(
-        _mesh_arg(mesh), "signed_distance", *_grid_args(resolution, dims)
+        _mesh_arg(mesh), "density", *_grid_args(resolution, dims), memory_limit=memory_limit
     )
     return Volume(values, origin, voxel_size)
 
 
+@_documented
+def signed_distance(
+    mesh: Any,
+    resolution: Optional[int] = None,
+    dims: Optional[Sequence[int]] = None,
+    *,
+    memory_limit: _Memory = None,
+) -> Volume:
+    """The signed Euclidean distance in voxels, inside positive (paper 4.2), as ``implicitize sdf``.
+
+    ``resolution`` (default {resolution}), ``dims`` and ``memory_limit`` as in :func:`voxelize`.
+    """
+    values, origin, voxel_size = _volume(
+        _mesh_arg(mesh),
+        "signed_distance",
+        *_grid_args(resolution, dims),
+        memory_limit=memory_limit,
+    )
+    return Volume(values, origin, voxel_size)
+
+
+@_documented
 def fit(
     mesh: Any,
-    resolution: Optional[int] = 200,
-    target_error: float = 2.0,
-    seed: int = 1,
+    resolution: Optional[int] = None,
+    target_error: Optional[float] = None,
+    seed: Optional[int] = None,
     max_constraints: Optional[int] = None,
-    method: str = "iterative",
+    method: Optional[str] = None,
     progress: bool = False,
     *,
     dims: Optional[Sequence[int]] = None,
     max_iterations: Optional[int] = None,
     subvoxel: bool = False,
     full_resolution: bool = False,
+    memory_limit: _Memory = None,
 ) -> Model:
     """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``.
 
-    ``resolution`` voxels along the longest axis (or ``dims=``); stops once the max error E is
-    at most ``target_error`` voxels; ``seed`` seeds every random choice (same seed, same
-    model file); ``method`` is ``"iterative"`` (paper 5) or ``"naive"`` (paper 3.2);
-    ``progress`` prints one line per iteration on stderr. The GIL is released while fitting.
+    ``resolution`` voxels along the longest axis (default {resolution}; or ``dims=``); stops once
+    the max error E is at most ``target_error`` voxels (default {target_error}); ``seed``
+    (default {seed}) seeds every random choice (same seed, same model file); ``method`` is
+    ``"iterative"`` (paper 5, the default) or ``"naive"`` (paper 3.2); at most
+    ``max_constraints`` constraints (default {max_constraints}, {naive_max_constraints} for the
+    naive method) and ``max_iterations`` iterations (default {max_iterations}); ``progress``
+    prints one line per iteration on stderr; ``memory_limit`` as in :func:`voxelize`. The GIL
+    is released while fitting.
     """
-    if dims is not None:
-        resolution = None
     return _fit(
         _mesh_arg(mesh),
         *_grid_args(resolution, dims),
-        target_error=float(target_error),
-        seed=int(seed),
+        target_error=None if target_error is None else float(target_error),
+        seed=None if seed is None else int(seed),
         max_constraints=max_constraints,
         method=method,
         max_iterations=max_iterations,
         subvoxel=subvoxel,
         full_resolution=full_resolution,
         progress=progress,
+        memory_limit=memory_limit,
     )
 
 
-def load(path: Union[str, "os.PathLike[str]"]) -> Model:
+def load(path: Union[str, "_os.PathLike[str]"]) -> Model:
     """Reads a model file written by the CLI (``fit``, ``solve``, ``csg``) or ``Model.save``."""
-    return _load(os.fspath(path))
+    return _load(_os.fspath(path))
 
 
 def union(a: Model, b: Model, blend: float = 0.0) -> Model:

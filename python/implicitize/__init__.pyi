@@ -7,6 +7,10 @@ import numpy as np
 import numpy.typing as npt
 
 _Path = Union[str, "os.PathLike[str]"]
+_Memory = Union[int, str, None]
+
+DEFAULTS: dict[str, Any]
+"""The library's defaults of the keywords left at None."""
 _Points = npt.ArrayLike
 _Vec3 = Tuple[float, float, float]
 
@@ -43,9 +47,13 @@ class Model:
     def save(self, path: _Path) -> None:
         """Writes the model file, as ``implicitize fit -o``."""
     def to_mesh(
-        self, resolution: int = 200, dense: bool = False
+        self,
+        resolution: Optional[int] = None,
+        dense: bool = False,
+        memory_limit: _Memory = None,
     ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.uint32]]:
-        """The zero set polygonized: (vertices (N, 3), faces (M, 3)), as ``implicitize mesh``."""
+        """The zero set polygonized: (vertices (N, 3), faces (M, 3)), as ``implicitize mesh``;
+        ``resolution`` None is DEFAULTS["resolution"]."""
     def render(
         self,
         size: Tuple[int, int] = (800, 600),
@@ -55,30 +63,42 @@ class Model:
         """A picture (height, width, 3) of the surface on white, as ``implicitize render``."""
 
 def voxelize(
-    mesh: Any, resolution: Optional[int] = None, dims: Optional[Sequence[int]] = None
+    mesh: Any,
+    resolution: Optional[int] = None,
+    dims: Optional[Sequence[int]] = None,
+    *,
+    memory_limit: _Memory = None,
 ) -> Volume:
-    """Densities in [0, 1], 1 inside, as ``implicitize voxelize``."""
+    """Densities in [0, 1], 1 inside, as ``implicitize voxelize``; None is DEFAULTS' value,
+    MemoryError beyond ``memory_limit``."""
 
 def signed_distance(
-    mesh: Any, resolution: Optional[int] = None, dims: Optional[Sequence[int]] = None
+    mesh: Any,
+    resolution: Optional[int] = None,
+    dims: Optional[Sequence[int]] = None,
+    *,
+    memory_limit: _Memory = None,
 ) -> Volume:
-    """The signed distance in voxels, inside positive, as ``implicitize sdf``."""
+    """The signed distance in voxels, inside positive, as ``implicitize sdf``; None is
+    DEFAULTS' value, MemoryError beyond ``memory_limit``."""
 
 def fit(
     mesh: Any,
-    resolution: Optional[int] = 200,
-    target_error: float = 2.0,
-    seed: int = 1,
+    resolution: Optional[int] = None,
+    target_error: Optional[float] = None,
+    seed: Optional[int] = None,
     max_constraints: Optional[int] = None,
-    method: str = "iterative",
+    method: Optional[str] = None,
     progress: bool = False,
     *,
     dims: Optional[Sequence[int]] = None,
     max_iterations: Optional[int] = None,
     subvoxel: bool = False,
     full_resolution: bool = False,
+    memory_limit: _Memory = None,
 ) -> Model:
-    """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``."""
+    """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``; None is
+    DEFAULTS' value, MemoryError beyond ``memory_limit``."""
 
 def load(path: _Path) -> Model:
     """Reads a model file."""

@@ -8,13 +8,19 @@ this package installed and the inputs and OUT_DIR at the same paths).
 
 A worker that dies mid-batch loses no mesh: the scheduler runs its tasks again on another
 worker. A task that keeps killing its workers (Dask's ``allowed-failures``) is listed as
-failed. Every input appears in the manifest exactly once, and a rerun skips meshes whose
-outputs are complete. Exit status 1 when any mesh failed.
+failed. Every input appears in the manifest exactly once, and a rerun reuses only the meshes
+whose outputs are complete and were made from the same input file (size, modification time,
+content) and options. Exit status 1 when any mesh failed.
+
+The options and their defaults are the library's, as ``implicitize batch`` takes them. The
+memory limit (``--memory-limit``, default the machine's available memory) is shared between
+the workers of a LocalCluster; on a running cluster it is each task's.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 from typing import Any, Dict, List, Optional, Sequence
@@ -28,6 +34,7 @@ def convert(input: str, name: str, out_dir: str, options: Dict[str, Any]) -> str
 
 
 def _parser() -> argparse.ArgumentParser:
+    defaults = _implicitize.defaults()
     parser = argparse.ArgumentParser(
         prog="python -m implicitize.batch",
         description="Fit many meshes on Dask distributed into one folder, with a manifest.",
@@ -39,15 +46,34 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--sdf", action="store_true", help="also write signed distance volumes")
     parser.add_argument("--quiet", "-q", action="store_true", help="print no progress")
     grid = parser.add_mutually_exclusive_group()
-    grid.add_argument("--resolution", type=int, default=None)
-    grid.add_argument("--dims", type=int, nargs=3, default=None)
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--target-error", type=float, default=2.0)
-    parser.add_argument("--max-constraints", type=int, default=None)
-    parser.add_argument("--max-iterations", type=int, default=None)
-    parser.add_argument("--method", choices=["iterative", "naive"], default="iterative")
+    grid.add_argument(
+        "--resolution",
+        type=int,
+        help=f"voxels along each mesh's longest axis (default {defaults['resolution']})",
+    )
+    grid.add_argument("--dims", type=int, nargs=3, help="an exact grid size NX NY NZ")
+    parser.add_argument("--seed", type=int, help=f"(default {defaults['seed']})")
+    parser.add_argument(
+        "--target-error", type=float, help=f"voxels (default {defaults['target_error']})"
+    )
+    parser.add_argument(
+        "--max-constraints",
+        type=int,
+        help=f"(default {defaults['max_constraints']}; "
+        f"{defaults['naive_max_constraints']} with --method naive)",
+    )
+    parser.add_argument(
+        "--max-iterations", type=int, help=f"(default {defaults['max_iterations']})"
+    )
+    parser.add_argument(
+        "--method", choices=["iterative", "naive"], help=f"(default {defaults['method']})"
+    )
     parser.add_argument("--subvoxel", action="store_true")
     parser.add_argument("--full-resolution", action="store_true")
+    parser.add_argument(
+        "--memory-limit",
+        help="bytes, or a size such as 2G (default: the machine's available memory)",
+    )
     return parser
 
 
@@ -63,6 +89,7 @@ def _options(args: argparse.Namespace) -> Dict[str, Any]:
         "subvoxel": args.subvoxel,
         "full_resolution": args.full_resolution,
         "sdf": args.sdf,
+        "memory_limit": args.memory_limit,
     }
 
 
@@ -82,6 +109,18 @@ def _client(scheduler: Optional[str], workers: Optional[int]) -> Any:
         env={"RAYON_NUM_THREADS": share},
     )
     return Client(cluster)
+
+
+def _shared(options: Dict[str, Any], workers: int) -> Dict[str, Any]:
+    """The options of one of ``workers`` workers on this machine: its share of the memory."""
+    limit = options.get("memory_limit")
+    if limit is None:
+        limit = _implicitize.available_memory()
+        if limit is None:
+            return options
+    else:
+        limit = _implicitize.parse_size(str(limit))
+    return {**options, "memory_limit": max(1, limit // max(1, workers))}
 
 
 def run(
@@ -133,15 +172,23 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     options = _options(args)
     try:
         _implicitize.batch_plan([])  # the extension loads before a cluster starts
+        if not args.scheduler:
+            options = _shared(options, args.workers or os.cpu_count() or 1)
         with _client(args.scheduler, args.workers) as client:
             lines = run(args.inputs, args.output, options, client, args.quiet)
-    except (OSError, ValueError) as error:
+    except (OSError, ValueError, MemoryError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
-    failed = sum('"status":"failed"' in line for line in lines)
+    entries = [json.loads(line) for line in lines]
+    failed = sum(entry["status"] == "failed" for entry in entries)
+    reused = sum(entry.get("reused", False) for entry in entries)
     manifest = os.path.join(args.output, "manifest.jsonl")
     if not args.quiet:
-        print(f"{len(lines) - failed} of {len(lines)} meshes converted; wrote {manifest}", file=sys.stderr)
+        print(
+            f"{len(lines) - failed} of {len(lines)} meshes converted ({reused} reused from an "
+            f"earlier run of the same input and options); wrote {manifest}",
+            file=sys.stderr,
+        )
     if failed:
         print(f"error: {failed} of {len(lines)} meshes failed; see {manifest}", file=sys.stderr)
         return 1

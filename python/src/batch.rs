@@ -8,7 +8,7 @@ use implicitize::batch::{self, BatchOptions, Entry, Job};
 use pyo3::prelude::*;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::FitArgs;
+use crate::inputs::{FitArgs, MemoryArg};
 
 /// The mesh files `inputs` name (files, folders, `@LIST` files), each with the name of its
 /// outputs: `[(input, name), ...]` in order.
@@ -21,11 +21,12 @@ pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
 
 /// Converts one mesh into `out_dir` (or takes its complete outputs from an earlier run) and
 /// returns its manifest line (JSON). Never raises for a bad mesh: its line says `failed`.
-/// The options are `fit`'s; a bad option raises `ValueError`. The GIL is released meanwhile.
+/// The options are `fit`'s (every `None` the library's default); a bad option raises
+/// `ValueError`. `memory_limit` is this mesh's. The GIL is released meanwhile.
 #[pyfunction]
-#[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=2.0, seed=1,
-                    max_constraints=None, method="iterative".to_string(), max_iterations=None,
-                    subvoxel=false, full_resolution=false, sdf=false))]
+#[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=None,
+                    seed=None, max_constraints=None, method=None, max_iterations=None,
+                    subvoxel=false, full_resolution=false, sdf=false, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn batch_convert(
     py: Python<'_>,
@@ -34,14 +35,15 @@ pub fn batch_convert(
     out_dir: PathBuf,
     resolution: Option<i64>,
     dims: Option<Vec<i64>>,
-    target_error: f64,
-    seed: u64,
+    target_error: Option<f64>,
+    seed: Option<u64>,
     max_constraints: Option<i64>,
-    method: String,
+    method: Option<String>,
     max_iterations: Option<i64>,
     subvoxel: bool,
     full_resolution: bool,
     sdf: bool,
+    memory_limit: Option<MemoryArg>,
 ) -> PyResult<String> {
     let fit = FitArgs {
         resolution,
@@ -53,15 +55,18 @@ pub fn batch_convert(
         max_iterations,
         subvoxel,
         full_resolution,
+        memory_limit,
     }
     .options()?;
-    let options = BatchOptions { fit, sdf };
+    let mut options = BatchOptions::default();
+    options.fit = fit;
+    options.sdf = sdf;
     let job = Job { input, name };
     let entry = py.detach(|| {
         std::fs::create_dir_all(&out_dir)
             .map(|()| batch::convert(&job, &out_dir, &options))
             .unwrap_or_else(|e| {
-                batch::failed_entry(&job, format!("{}: {e}", out_dir.display()), 0.0)
+                batch::failed_entry(&job, format!("{}: {e}", out_dir.display()), None, 0.0)
             })
     });
     line(&entry)
@@ -70,7 +75,7 @@ pub fn batch_convert(
 /// The manifest line of a mesh whose conversion never finished (its workers kept dying).
 #[pyfunction]
 pub fn batch_failed(input: PathBuf, name: String, error: String) -> PyResult<String> {
-    line(&batch::failed_entry(&Job { input, name }, error, 0.0))
+    line(&batch::failed_entry(&Job { input, name }, error, None, 0.0))
 }
 
 /// Writes `out_dir/manifest.jsonl` from the lines, in order (atomically).

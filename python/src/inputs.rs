@@ -3,8 +3,9 @@
 
 use std::path::PathBuf;
 
-use implicitize::fit::{ErrorMeasure, FitOptions};
-use implicitize::pipeline::{self, MeshFitOptions};
+use implicitize::fit::ErrorMeasure;
+use implicitize::memory::{self, MemoryLimit};
+use implicitize::pipeline::{MeshFitOptions, MeshSource};
 use implicitize::{DVec3, Mesh, Resolution, mesh};
 use numpy::{PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -24,7 +25,7 @@ pub enum MeshArg<'py> {
 
 /// A mesh ready for the library: read from its file on the worker side of the GIL, or
 /// already copied out of its arrays.
-pub enum MeshSource {
+pub enum MeshInput {
     /// A file still to be read.
     File(PathBuf),
     /// A mesh from arrays.
@@ -36,24 +37,32 @@ pub const ARRAYS: &str = "the mesh";
 
 impl MeshArg<'_> {
     /// Checks the arrays and copies them into a mesh; a path is kept to be read later.
-    pub fn into_source(self) -> PyResult<MeshSource> {
+    pub fn into_input(self) -> PyResult<MeshInput> {
         match self {
-            MeshArg::Path(path) => Ok(MeshSource::File(path)),
-            MeshArg::Arrays(vertices, faces) => Ok(MeshSource::Memory(mesh_of(&vertices, &faces)?)),
+            MeshArg::Path(path) => Ok(MeshInput::File(path)),
+            MeshArg::Arrays(vertices, faces) => Ok(MeshInput::Memory(mesh_of(&vertices, &faces)?)),
         }
     }
 }
 
-impl MeshSource {
+impl MeshInput {
     /// The mesh, the name of its source for errors, and its file's size.
     pub fn read(self) -> implicitize::Result<(Mesh, String, Option<u64>)> {
         match self {
-            MeshSource::File(path) => {
+            MeshInput::File(path) => {
                 let (mesh, _) = mesh::read(&path)?;
                 let bytes = std::fs::metadata(&path).ok().map(|m| m.len());
                 Ok((mesh, path.display().to_string(), bytes))
             }
-            MeshSource::Memory(mesh) => Ok((mesh, ARRAYS.to_string(), None)),
+            MeshInput::Memory(mesh) => Ok((mesh, ARRAYS.to_string(), None)),
+        }
+    }
+
+    /// The library's source of the mesh, for its fit.
+    pub fn source(&self) -> MeshSource<'_> {
+        match self {
+            MeshInput::File(path) => MeshSource::File(path),
+            MeshInput::Memory(mesh) => MeshSource::Mesh { mesh, name: ARRAYS, bytes: None },
         }
     }
 }
@@ -101,7 +110,8 @@ fn mesh_of(vertices: &PyReadonlyArray2<f64>, faces: &PyReadonlyArray2<i64>) -> P
     Ok(Mesh { vertices, triangles })
 }
 
-/// The grid resolution: `resolution` voxels along the longest axis, or exact `dims`.
+/// The grid resolution: `resolution` voxels along the longest axis, or exact `dims`; the
+/// library's default when neither is given.
 pub fn resolution(resolution: Option<i64>, dims: Option<Vec<i64>>) -> PyResult<Resolution> {
     let positive = |what: &str, n: i64| {
         usize::try_from(n)
@@ -119,7 +129,8 @@ pub fn resolution(resolution: Option<i64>, dims: Option<Vec<i64>>) -> PyResult<R
             ])),
             _ => Err(invalid(format!("dims: expected 3 sizes (nx, ny, nz), got {}", dims.len()))),
         },
-        (r, None) => Ok(Resolution::LongestAxis(positive("resolution", r.unwrap_or(200))?)),
+        (Some(r), None) => Ok(Resolution::LongestAxis(positive("resolution", r)?)),
+        (None, None) => Ok(Resolution::default()),
     }
 }
 
@@ -145,81 +156,96 @@ pub fn points(points: &Bound<'_, PyAny>, dim: usize) -> PyResult<(Vec<f64>, usiz
     Ok((flat, array.shape()[0]))
 }
 
-/// The options of a fit, as `implicitize fit` takes them.
+/// A memory limit as Python gives it: bytes (an int) or a size such as `"2G"`; `None` is what
+/// the machine has available.
+#[derive(FromPyObject)]
+pub enum MemoryArg {
+    /// Bytes.
+    Bytes(i64),
+    /// A size with an optional unit (K, M, G, T: powers of 1024).
+    Size(String),
+}
+
+/// The library's memory limit for `memory_limit=`.
+pub fn memory_limit(limit: Option<MemoryArg>) -> PyResult<MemoryLimit> {
+    match limit {
+        None => Ok(MemoryLimit::Available),
+        Some(MemoryArg::Bytes(n)) => {
+            u64::try_from(n).ok().filter(|&n| n > 0).map(MemoryLimit::Bytes).ok_or_else(|| {
+                invalid(format!("memory_limit must be a positive number of bytes, not {n}"))
+            })
+        }
+        Some(MemoryArg::Size(text)) => {
+            memory::parse_size(&text).map(MemoryLimit::Bytes).map_err(to_py)
+        }
+    }
+}
+
+/// A count Python gives (`max_iterations=`, `max_constraints=`), checked positive.
+fn count(what: &str, n: i64) -> PyResult<usize> {
+    usize::try_from(n)
+        .ok()
+        .filter(|&n| n > 0)
+        .ok_or_else(|| invalid(format!("{what} must be a positive count, not {n}")))
+}
+
+/// The options of a fit, as `implicitize fit` takes them; `None` is the library's default.
 pub struct FitArgs {
     /// Voxels along the longest axis (`resolution=`), or
     pub resolution: Option<i64>,
     /// voxels along each axis (`dims=`); the default resolution when neither is given.
     pub dims: Option<Vec<i64>>,
     /// Stop once E is at most this (voxels).
-    pub target_error: f64,
+    pub target_error: Option<f64>,
     /// The seed of the random choices.
-    pub seed: u64,
-    /// Never more constraints than this (the method's default when `None`).
+    pub seed: Option<u64>,
+    /// Never more constraints than this.
     pub max_constraints: Option<i64>,
     /// "iterative" or "naive".
-    pub method: String,
-    /// Stop after this many iterations (the library's default when `None`).
+    pub method: Option<String>,
+    /// Stop after this many iterations.
     pub max_iterations: Option<i64>,
     /// Measure E from points on the surfaces.
     pub subvoxel: bool,
     /// No start at half the resolution.
     pub full_resolution: bool,
+    /// The memory the fit may use.
+    pub memory_limit: Option<MemoryArg>,
 }
 
 impl FitArgs {
-    /// The library's options, checked: what `implicitize fit` makes of the same flags.
+    /// The library's options: its defaults, with what was given set on them (the library
+    /// checks their ranges when the fit starts).
     pub fn options(self) -> PyResult<MeshFitOptions> {
-        let resolution = resolution(self.resolution, self.dims)?;
-        if !(self.target_error.is_finite() && self.target_error >= 0.0) {
-            return Err(invalid(format!(
-                "target_error must be a finite number of voxels >= 0, not {}",
-                self.target_error
-            )));
+        let mut options = MeshFitOptions::default();
+        options.resolution = resolution(self.resolution, self.dims)?;
+        if let Some(method) = self.method {
+            options.method = method.parse().map_err(to_py)?;
         }
-        let count = |what: &str, n: i64| {
-            usize::try_from(n)
-                .ok()
-                .filter(|&n| n > 0)
-                .ok_or_else(|| invalid(format!("{what} must be a positive count, not {n}")))
-        };
-        let method = match self.method.as_str() {
-            "iterative" => pipeline::Method::Iterative,
-            "naive" => pipeline::Method::Naive,
-            other => {
-                return Err(invalid(format!(
-                    "method must be 'iterative' or 'naive', not {other:?}"
-                )));
-            }
-        };
-        let default_constraints = match method {
-            pipeline::Method::Iterative => FitOptions::default().max_constraints,
-            pipeline::Method::Naive => implicitize::fit::naive::DEFAULT_CONSTRAINTS,
-        };
-        let fit = FitOptions {
-            seed: self.seed,
-            max_iterations: match self.max_iterations {
-                Some(n) => count("max_iterations", n)?,
-                None => FitOptions::default().max_iterations,
-            },
-            target_error: self.target_error as f32,
-            error_measure: if self.subvoxel { ErrorMeasure::SubVoxel } else { ErrorMeasure::Voxel },
-            max_constraints: match self.max_constraints {
-                Some(n) => count("max_constraints", n)?,
-                None => default_constraints,
-            },
-            coarse_start_min_axis: if self.full_resolution {
-                usize::MAX
-            } else {
-                FitOptions::default().coarse_start_min_axis
-            },
-            ..FitOptions::default()
-        };
-        Ok(MeshFitOptions { resolution, method, fit, ..Default::default() })
+        let fit = &mut options.fit;
+        if let Some(target) = self.target_error {
+            fit.target_error = target as f32;
+        }
+        if let Some(seed) = self.seed {
+            fit.seed = seed;
+        }
+        if let Some(n) = self.max_iterations {
+            fit.max_iterations = count("max_iterations", n)?;
+        }
+        if let Some(n) = self.max_constraints {
+            fit.max_constraints = Some(count("max_constraints", n)?);
+        }
+        if self.subvoxel {
+            fit.error_measure = ErrorMeasure::SubVoxel;
+        }
+        fit.coarse_start = !self.full_resolution;
+        options.memory_limit = memory_limit(self.memory_limit)?;
+        options.check().map_err(to_py)?;
+        Ok(options)
     }
 }
 
 /// Reads or takes the mesh, naming its source in errors.
-pub fn read(source: MeshSource) -> PyResult<(Mesh, String, Option<u64>)> {
+pub fn read(source: MeshInput) -> PyResult<(Mesh, String, Option<u64>)> {
     source.read().map_err(to_py)
 }

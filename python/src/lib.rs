@@ -7,7 +7,10 @@
 //! heavy work (reading meshes, voxelizing, fitting, evaluating, polygonizing, rendering) runs
 //! with the GIL released, so Python threads run it in parallel.
 
+use implicitize::Resolution;
+use implicitize::fit::{FitOptions, MAX_CONSTRAINTS, naive};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 mod batch;
 mod errors;
@@ -27,5 +30,38 @@ fn _implicitize(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::batch_convert, m)?)?;
     m.add_function(wrap_pyfunction!(batch::batch_failed, m)?)?;
     m.add_function(wrap_pyfunction!(batch::batch_manifest, m)?)?;
+    m.add_function(wrap_pyfunction!(defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(available_memory, m)?)?;
+    m.add_function(wrap_pyfunction!(parse_size, m)?)?;
     Ok(())
+}
+
+/// The library's defaults of the settings Python's keywords leave at `None`, so that the
+/// package's docstrings and the batch's `--help` show the library's numbers.
+#[pyfunction]
+fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let fit = FitOptions::default();
+    let defaults = PyDict::new(py);
+    defaults.set_item("resolution", Resolution::DEFAULT_LONGEST_AXIS)?;
+    defaults.set_item("target_error", fit.target_error)?;
+    defaults.set_item("seed", fit.seed)?;
+    defaults.set_item("max_iterations", fit.max_iterations)?;
+    defaults.set_item("max_constraints", MAX_CONSTRAINTS)?;
+    defaults.set_item("naive_max_constraints", naive::DEFAULT_CONSTRAINTS)?;
+    defaults.set_item("method", "iterative")?;
+    Ok(defaults)
+}
+
+/// The memory this process can still get, in bytes (the machine's available memory within
+/// `ulimit -v`), or `None` where it cannot be read: the default `memory_limit`.
+#[pyfunction]
+fn available_memory() -> Option<u64> {
+    implicitize::memory::available()
+}
+
+/// A memory size such as `"2G"` or `"512M"` (powers of 1024) in bytes, as `memory_limit=`
+/// reads it.
+#[pyfunction]
+fn parse_size(text: &str) -> PyResult<u64> {
+    implicitize::memory::parse_size(text).map_err(errors::to_py)
 }

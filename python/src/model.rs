@@ -5,9 +5,10 @@
 use std::path::{Path, PathBuf};
 
 use implicitize::csg::{Child, Composite, Operation};
-use implicitize::pipeline::Prepared;
+use implicitize::fit::IterationReport;
+use implicitize::pipeline::{self, FitObserver, FitOutputs, PolygonizeOptions};
 use implicitize::render::{Camera, Coloring, March, march_bounds, render_field};
-use implicitize::{DVec3, Field, Grid, Model, polygonize};
+use implicitize::{DVec3, Field, Implicit, Model};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
@@ -15,7 +16,7 @@ use pyo3::types::PyBytes;
 use rayon::prelude::*;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::{self, FitArgs, MeshArg};
+use crate::inputs::{self, FitArgs, MemoryArg, MeshArg};
 
 /// A mesh as Python gets it: vertices (N, 3) and faces (M, 3).
 type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<u32>>);
@@ -139,24 +140,26 @@ impl PyModel {
     }
 
     /// The zero set polygonized on a grid of `resolution` voxels along the longest axis of
-    /// the bounds (as `implicitize mesh`): (vertices float64 (N, 3), faces uint32 (M, 3)).
-    #[pyo3(signature = (resolution=200, dense=false))]
+    /// the bounds (as `implicitize mesh`; `None`, the library's default): (vertices float64
+    /// (N, 3), faces uint32 (M, 3)).
+    #[pyo3(signature = (resolution=None, dense=false, memory_limit=None))]
     fn to_mesh<'py>(
         &self,
         py: Python<'py>,
-        resolution: i64,
+        resolution: Option<i64>,
         dense: bool,
+        memory_limit: Option<MemoryArg>,
     ) -> PyResult<MeshArrays<'py>> {
         self.check_3d("to_mesh")?;
-        let resolution = inputs::resolution(Some(resolution), None)?;
-        let grid = Grid::around(&self.model.bounds(), resolution).map_err(to_py)?;
-        let surface = py.detach(|| {
-            if dense {
-                polygonize::polygonize_field_dense(&self.model, &grid)
-            } else {
-                polygonize::polygonize_field(&self.model, &grid)
-            }
-        });
+        let mut options = PolygonizeOptions::default();
+        options.resolution = inputs::resolution(resolution, None)?;
+        options.dense = dense;
+        options.memory_limit = inputs::memory_limit(memory_limit)?;
+        let surface = py
+            .detach(|| {
+                pipeline::polygonize(&self.model, &self.model.bounds(), "the model", &options)
+            })
+            .map_err(to_py)?;
         let vertices = surface.vertices.iter().flat_map(|v| v.to_array()).collect();
         let faces = surface.triangles.iter().flatten().copied().collect();
         Ok((matrix(py, vertices, 3)?, matrix(py, faces, 3)?))
@@ -236,25 +239,38 @@ impl PyModel {
     }
 }
 
-/// Fits `mesh` (paper 5, or 3.2 with method "naive") as `implicitize fit` does.
+/// Prints each iteration's line on stderr, when asked.
+struct Progress(bool);
+
+impl FitObserver for Progress {
+    fn iteration(&mut self, report: &IterationReport, _: &Implicit) {
+        if self.0 {
+            eprintln!("{}", report.line());
+        }
+    }
+}
+
+/// Fits `mesh` (paper 5, or 3.2 with method "naive") as `implicitize fit` does; every `None`
+/// is the library's default.
 #[pyfunction]
-#[pyo3(signature = (mesh, resolution=None, dims=None, target_error=2.0, seed=1,
-                    max_constraints=None, method="iterative".to_string(), max_iterations=None,
-                    subvoxel=false, full_resolution=false, progress=false))]
+#[pyo3(signature = (mesh, resolution=None, dims=None, target_error=None, seed=None,
+                    max_constraints=None, method=None, max_iterations=None,
+                    subvoxel=false, full_resolution=false, progress=false, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
     mesh: MeshArg<'_>,
     resolution: Option<i64>,
     dims: Option<Vec<i64>>,
-    target_error: f64,
-    seed: u64,
+    target_error: Option<f64>,
+    seed: Option<u64>,
     max_constraints: Option<i64>,
-    method: String,
+    method: Option<String>,
     max_iterations: Option<i64>,
     subvoxel: bool,
     full_resolution: bool,
     progress: bool,
+    memory_limit: Option<MemoryArg>,
 ) -> PyResult<PyModel> {
     let options = FitArgs {
         resolution,
@@ -266,21 +282,14 @@ pub fn fit(
         max_iterations,
         subvoxel,
         full_resolution,
+        memory_limit,
     }
     .options()?;
-    let source = mesh.into_source()?;
+    let input = mesh.into_input()?;
     py.detach(|| {
-        let (mesh, name, mesh_bytes) = inputs::read(source)?;
-        let prepared = Prepared::new(&mesh, &name, &options).map_err(to_py)?;
-        let mut fitted = prepared
-            .fit(|line, _| {
-                if progress {
-                    eprintln!("{}", line.line());
-                }
-            })
+        let outputs = FitOutputs::default();
+        let fitted = pipeline::fit(input.source(), &options, &outputs, &mut Progress(progress))
             .map_err(to_py)?;
-        fitted.report.mesh_bytes = mesh_bytes;
-        fitted.finish();
         let report = serde_json::to_string(&fitted.report)
             .map_err(|e| invalid(format!("the fit report: {e}")))?;
         Ok(PyModel { model: fitted.model, report: Some(report) })

@@ -1,13 +1,12 @@
 //! `voxelize` and `signed_distance`: a mesh's volumes on a grid, the same numbers as the
 //! command-line tool's `.npy` files (`implicitize voxelize` and `implicitize sdf`).
 
-use implicitize::grid::Volume;
-use implicitize::{pipeline, voxelize};
+use implicitize::pipeline::{self, VolumeKind, VolumeOptions};
 use numpy::{IntoPyArray, PyArray3, ndarray::Array3};
 use pyo3::prelude::*;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::{self, MeshArg};
+use crate::inputs::{self, MemoryArg, MeshArg};
 
 /// A volume as the Python package's `Volume` takes it: the float32 values indexed `[i, j, k]`
 /// in C order, the centre of voxel (0, 0, 0) and the voxel's side, in mesh units.
@@ -15,33 +14,30 @@ type VolumeParts<'py> = (Bound<'py, PyArray3<f32>>, (f64, f64, f64), f64);
 
 /// The densities (`kind` "density", in [0, 1], 1 inside) or the signed distance (`kind`
 /// "signed_distance", voxels, inside positive) of `mesh` on the grid `resolution` or `dims`
-/// place around it.
+/// place around it, within `memory_limit`.
 #[pyfunction]
-#[pyo3(signature = (mesh, kind, resolution=None, dims=None))]
+#[pyo3(signature = (mesh, kind, resolution=None, dims=None, memory_limit=None))]
 pub fn volume<'py>(
     py: Python<'py>,
     mesh: MeshArg<'py>,
     kind: &str,
     resolution: Option<i64>,
     dims: Option<Vec<i64>>,
+    memory_limit: Option<MemoryArg>,
 ) -> PyResult<VolumeParts<'py>> {
-    let resolution = inputs::resolution(resolution, dims)?;
-    let signed = match kind {
-        "density" => false,
-        "signed_distance" => true,
+    let mut options = VolumeOptions::default();
+    options.resolution = inputs::resolution(resolution, dims)?;
+    options.memory_limit = inputs::memory_limit(memory_limit)?;
+    let kind = match kind {
+        "density" => VolumeKind::Density,
+        "signed_distance" => VolumeKind::SignedDistance,
         other => return Err(invalid(format!("unknown volume kind {other:?}"))),
     };
-    let source = mesh.into_source()?;
-    let volume = py.detach(|| -> PyResult<Volume<f32>> {
-        let (mesh, name, _) = inputs::read(source)?;
-        let options = voxelize::VoxelizeOptions::default();
-        let volume = if signed {
-            pipeline::signed_distance_of_mesh(&mesh, resolution, &options, &name)
-        } else {
-            pipeline::grid_around(&mesh, resolution, &name)
-                .and_then(|grid| voxelize::voxelize(&mesh, &grid, &options))
-        };
-        volume.map_err(to_py)
+    let input = mesh.into_input()?;
+    let volume = py.detach(|| {
+        let (mesh, name, _) = inputs::read(input)?;
+        let (volume, _) = pipeline::volume(&mesh, &name, kind, &options).map_err(to_py)?;
+        Ok::<_, PyErr>(volume)
     })?;
     let grid = volume.grid;
     let values = Array3::from_shape_vec(grid.dims, volume.data)

@@ -36,11 +36,13 @@ pub struct CoarseStart {
 
 impl CoarseStart {
     /// The half-resolution goal of `goal`, or `None` where the fit starts at full resolution
-    /// (a 2D grid, one smaller than `coarse_start_min_axis`, or an iteration limit of 1).
+    /// (a 2D grid, one smaller than `coarse_start_min_axis`, `coarse_start` off, or an iteration
+    /// limit of 1).
     pub fn of(goal: &Goal, options: &FitOptions) -> Option<CoarseStart> {
         let grid = goal.grid();
         let longest = grid.dims.iter().copied().max().unwrap_or(0);
-        if grid.is_2d() || longest < options.coarse_start_min_axis || options.max_iterations < 2 {
+        let wanted = options.coarse_start && longest >= options.coarse_start_min_axis;
+        if grid.is_2d() || !wanted || options.max_iterations < 2 {
             return None;
         }
         let density = downsample(&goal.density);

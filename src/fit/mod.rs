@@ -42,7 +42,12 @@ pub use goal::Goal;
 pub use report::{ConstraintCounts, FitReport, GridLevel, IterationReport, Termination, Timings};
 
 /// Every threshold of the fit, with the paper's values as defaults where the paper gives one.
-#[derive(Debug, Clone, PartialEq)]
+///
+/// Made with [`FitOptions::default`] and changed field by field; [`FitOptions::check`] says
+/// whether the values can be used. It serializes (as the batch manifest records what made
+/// each model).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[non_exhaustive]
 pub struct FitOptions {
     /// Seed of the random choice of initial constraints.
     pub seed: u64,
@@ -96,17 +101,21 @@ pub struct FitOptions {
     pub min_rms_improvement: f32,
     /// Stop after this many iterations.
     pub max_iterations: usize,
-    /// Never add constraints beyond this many in all. A safety limit, far above what the
-    /// paper's models need at E 2 (500 to 800), that a fit reaching it reports
-    /// ([`Termination::ConstraintLimit`]): the solve scales (iteratively above
-    /// [`rbf::DIRECT_MAX`] constraints), so the target E decides the count.
-    pub max_constraints: usize,
+    /// Never add constraints beyond this many in all; `None` is the method's own limit
+    /// ([`MAX_CONSTRAINTS`] for the iterative fit, [`naive::DEFAULT_CONSTRAINTS`] for the naive
+    /// one). A safety limit, far above what the paper's models need at E 2 (500 to 800), that
+    /// a fit reaching it reports ([`Termination::ConstraintLimit`]): the solve scales
+    /// (iteratively above [`rbf::DIRECT_MAX`] constraints), so the target E decides the count.
+    pub max_constraints: Option<usize>,
     /// At most this fraction of the current count is added in one iteration (at least
     /// `initial_constraints / 2`), greatest error first. The paper adds every candidate that
     /// survives pruning; late in a fit, when E is small, that is hundreds at once, which pull on
     /// each other and overshoot. Growing by a fraction keeps the paper's order and pruning and
     /// lets the next iteration see what the last additions did.
     pub max_growth: f64,
+    /// Whether the fit may start on the goal at half the resolution (see `coarse.rs` and
+    /// `coarse_start_min_axis`); `false` runs every iteration on the full grid.
+    pub coarse_start: bool,
     /// The fit starts on the goal at half the resolution (see `coarse.rs`) when its grid is 3D
     /// and has at least this many voxels along its longest axis, and that start at a quarter
     /// from four times as many, at an eighth from sixteen times as many; `usize::MAX` never does.
@@ -143,14 +152,47 @@ impl Default for FitOptions {
             patience: 4,
             min_rms_improvement: 0.01,
             max_iterations: 100,
-            max_constraints: 50_000,
+            max_constraints: None,
             max_growth: 0.1,
+            coarse_start: true,
             coarse_start_min_axis: 128,
             coarse_target_error: 3.0,
             coarse_max_growth: 0.2,
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
         }
+    }
+}
+
+/// The iterative fit's constraint limit where [`FitOptions::max_constraints`] sets none.
+pub const MAX_CONSTRAINTS: usize = 50_000;
+
+impl FitOptions {
+    /// The constraint limit of the iterative fit: `max_constraints`, or [`MAX_CONSTRAINTS`].
+    pub fn constraint_limit(&self) -> usize {
+        self.max_constraints.unwrap_or(MAX_CONSTRAINTS)
+    }
+
+    /// Checks the settings a caller sets: a target E that is a number of voxels, at least one
+    /// iteration and one constraint.
+    ///
+    /// # Errors
+    /// The first setting out of its range, named (see [`crate::Error::worded`]).
+    pub fn check(&self) -> Result<()> {
+        let invalid = |message: String| Err(crate::Error::invalid("options", message));
+        if !(self.target_error.is_finite() && self.target_error >= 0.0) {
+            return invalid(format!(
+                "`target_error` must be a finite number of voxels >= 0, not {}",
+                self.target_error
+            ));
+        }
+        if self.max_iterations == 0 {
+            return invalid("`max_iterations` must be at least 1".into());
+        }
+        if self.max_constraints == Some(0) {
+            return invalid("`max_constraints` must be at least 1".into());
+        }
+        Ok(())
     }
 }
 
@@ -303,7 +345,7 @@ fn iterate(
     on_iteration: &mut impl FnMut(&IterationReport, &Implicit),
 ) -> Result<Stage> {
     let grid = *goal.grid();
-    constraints.truncate(options.max_constraints);
+    constraints.truncate(options.constraint_limit());
     let mut best: Option<(Implicit, ErrorMetrics, usize)> = None;
     // The best model's iteration, counted from the fit's first.
     let mut best_in_fit = 0;
@@ -557,7 +599,8 @@ pub fn solve(
 /// How many constraints one iteration may add to `count` (see [`FitOptions::max_growth`]).
 fn added_limit(count: usize, options: &FitOptions) -> usize {
     let growth = (count as f64 * options.max_growth).ceil() as usize;
-    growth.max(options.initial_constraints / 2).min(options.max_constraints.saturating_sub(count))
+    let room = options.constraint_limit().saturating_sub(count);
+    growth.max(options.initial_constraints / 2).min(room)
 }
 
 /// Whether `a` is a better model than `b`: smaller E by `measure`, then smaller RMS (paper
@@ -589,8 +632,8 @@ fn stop_reason(
         Some(Termination::NoImprovement { patience: options.patience })
     } else if in_fit >= options.max_iterations {
         Some(Termination::IterationLimit { limit: options.max_iterations })
-    } else if constraint_count >= options.max_constraints {
-        Some(Termination::ConstraintLimit { limit: options.max_constraints })
+    } else if constraint_count >= options.constraint_limit() {
+        Some(Termination::ConstraintLimit { limit: options.constraint_limit() })
     } else {
         None
     }

@@ -3,8 +3,8 @@
 //! along its normal.
 //!
 //! The vertices are a seeded random subset of the mesh's (35,000 for the bunny), spaced like the
-//! iterative fit's constraints, of at most half the constraint budget (`max_constraints`; the
-//! command line gives this method [`DEFAULT_CONSTRAINTS`]). The result is measured with the
+//! iterative fit's constraints, of at most half the constraint budget (`max_constraints`,
+//! [`DEFAULT_CONSTRAINTS`] where it sets none). The result is measured with the
 //! same metrics as the iterative fit.
 
 use std::time::Instant;
@@ -57,11 +57,11 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
     Ok(super::Fit { implicit, report })
 }
 
-/// Vertex boundary constraints and their exterior partners, in voxel coordinates.
 /// The naive method's constraint count where none is given: 1,000 mesh vertices, each with an
 /// exterior constraint.
 pub const DEFAULT_CONSTRAINTS: usize = 2000;
 
+/// Vertex boundary constraints and their exterior partners, in voxel coordinates.
 fn naive_constraints(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Vec<FitConstraint> {
     let grid = goal.grid();
     let normals = vertex_normals(mesh);
@@ -71,7 +71,7 @@ fn naive_constraints(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Vec<FitC
     let mut boundary: Vec<FitConstraint> = Vec::new();
     let mut exterior: Vec<FitConstraint> = Vec::new();
     for v in order {
-        if 2 * boundary.len() + 2 > options.max_constraints {
+        if 2 * boundary.len() + 2 > options.max_constraints.unwrap_or(DEFAULT_CONSTRAINTS) {
             break;
         }
         let position = grid.to_grid(mesh.vertices[v]);

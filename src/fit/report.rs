@@ -203,6 +203,12 @@ pub enum Termination {
         /// The limit.
         limit: usize,
     },
+    /// The constraints reached the most whose solve fits in the memory limit (see
+    /// [`crate::pipeline::Prepared::fit`]).
+    MemoryLimit {
+        /// The constraints the memory limit allows.
+        constraints: usize,
+    },
     /// Every candidate was pruned: nothing was left to add.
     NoCandidate,
     /// The naive method (paper 3.2) solves once.
@@ -225,11 +231,16 @@ impl std::fmt::Display for Termination {
                 write!(f, "no improvement in E or RMS over {patience} iterations")
             }
             Termination::IterationLimit { limit } => {
-                write!(f, "reached the limit of {limit} iterations (--max-iterations)")
+                write!(f, "reached the limit of {limit} iterations (`max_iterations`)")
             }
             Termination::ConstraintLimit { limit } => {
-                write!(f, "reached the limit of {limit} constraints (--max-constraints)")
+                write!(f, "reached the limit of {limit} constraints (`max_constraints`)")
             }
+            Termination::MemoryLimit { constraints } => write!(
+                f,
+                "reached the {constraints} constraints whose solve fits in the memory limit \
+                 (`memory_limit`)"
+            ),
             Termination::NoCandidate => f.write_str("no candidate survived pruning"),
             Termination::SingleSolve => f.write_str("the naive method solves once"),
         }

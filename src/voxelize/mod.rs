@@ -45,7 +45,7 @@
 //! # Where there is no trustworthy inside
 //! An open mesh has no inside of its own: the winding number caps its holes, and over a large
 //! opening (a car body without its floor, a sheet) it stays near one half over a large region,
-//! where the answer is a guess. [`voxelize_reporting`] measures how much of the grid that is
+//! where the answer is a guess. [`Inside::ambiguity`] measures how much of the grid that is
 //! ([`Ambiguity`]): the generalized winding number on a lattice of at most 16 voxels along
 //! each axis, and the fraction of those voxels where it lies within a quarter of one half.
 //! Closed meshes (however nested, duplicated, non-manifold or self-intersecting: every edge
@@ -76,7 +76,8 @@ use rays::{Rays, plane_axes, vote};
 use winding::Winding;
 
 /// How to voxelize. The default suits the paper's volumes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[non_exhaustive]
 pub struct VoxelizeOptions {
     /// Samples per voxel along each axis at the surface (odd, 1 to 15): a boundary voxel's
     /// density is the fraction of its `supersampling^3` samples inside. 1 turns supersampling
@@ -88,6 +89,37 @@ impl Default for VoxelizeOptions {
     fn default() -> Self {
         VoxelizeOptions { supersampling: 3 }
     }
+}
+
+impl VoxelizeOptions {
+    /// These options with `supersampling` samples per voxel along each axis.
+    pub fn with_supersampling(self, supersampling: usize) -> Self {
+        VoxelizeOptions { supersampling }
+    }
+
+    /// Checks that the supersampling is odd and in 1..=15.
+    ///
+    /// # Errors
+    /// The supersampling, named, when it is not.
+    pub fn check(&self) -> Result<()> {
+        let s = self.supersampling;
+        if s.is_multiple_of(2) || !(1..=15).contains(&s) {
+            return Err(Error::invalid(
+                "voxelize",
+                format!("`supersampling` must be odd and in 1..=15, not {s}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A voxelized mesh: its densities and how its inside was decided.
+#[derive(Debug, Clone)]
+pub struct Voxelized {
+    /// Densities in `[0, 1]`, 1 inside, 0 outside.
+    pub density: Volume<f32>,
+    /// How the inside was decided: whether the mesh is closed, and how much was guessed.
+    pub inside: Inside,
 }
 
 /// How the inside of a mesh was decided: whether the mesh is closed, and how often the rays
@@ -150,37 +182,13 @@ impl Ambiguity {
 }
 
 /// Voxelizes `mesh` on `grid`: densities in `[0, 1]`, 1 inside, 0 outside (see the module doc
-/// for the method and what it guarantees).
-///
-/// Fails when the mesh has no triangles, a triangle indexes a missing vertex, a coordinate is
-/// not finite, the grid is empty or its voxel size is not positive, or the supersampling is
-/// not odd and in 1..=15.
-pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<Volume<f32>> {
-    Ok(voxelize_with_inside(mesh, grid, options)?.0)
-}
-
-/// [`voxelize`], and how much of the grid has a winding number near one half.
+/// for the method and what it guarantees), and how the inside was decided.
 ///
 /// # Errors
-/// As [`voxelize`].
-pub fn voxelize_reporting(
-    mesh: &Mesh,
-    grid: &Grid,
-    options: &VoxelizeOptions,
-) -> Result<(Volume<f32>, Ambiguity)> {
-    let (volume, inside) = voxelize_with_inside(mesh, grid, options)?;
-    Ok((volume, inside.ambiguity))
-}
-
-/// [`voxelize`], and how the inside was decided.
-///
-/// # Errors
-/// As [`voxelize`].
-pub fn voxelize_with_inside(
-    mesh: &Mesh,
-    grid: &Grid,
-    options: &VoxelizeOptions,
-) -> Result<(Volume<f32>, Inside)> {
+/// The mesh has no triangles, a triangle indexes a missing vertex, a coordinate is not
+/// finite, the grid is empty or its voxel size is not positive, or the supersampling is not
+/// odd and in 1..=15.
+pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<Voxelized> {
     check(mesh, grid, options)?;
     let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
     if vertices.iter().any(|p| !p.is_finite()) {
@@ -208,7 +216,7 @@ pub fn voxelize_with_inside(
         winding_near_half: ambiguity.fraction(),
         ambiguity,
     };
-    Ok((Volume { grid: *grid, data }, inside))
+    Ok(Voxelized { density: Volume { grid: *grid, data }, inside })
 }
 
 /// The winding number on a lattice of at most 16 voxels along each axis of `grid`.
@@ -231,13 +239,7 @@ fn ambiguity(winding: &Winding, grid: &Grid) -> Ambiguity {
 }
 
 fn check(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<()> {
-    let s = options.supersampling;
-    if s.is_multiple_of(2) || !(1..=15).contains(&s) {
-        return Err(Error::invalid(
-            "voxelize",
-            format!("supersampling must be odd and in 1..=15, not {s}"),
-        ));
-    }
+    options.check()?;
     if mesh.triangles.is_empty() {
         return Err(Error::invalid("voxelize", "the mesh has no triangles"));
     }

@@ -13,11 +13,9 @@ use implicitize::{DVec3, MeshFitOptions, Resolution};
 
 /// Fits `mesh` at a small resolution.
 fn fitted(mesh: &implicitize::Mesh) -> Model {
-    let options = MeshFitOptions {
-        resolution: Resolution::LongestAxis(40),
-        fit: FitOptions { max_iterations: 12, ..FitOptions::default() },
-        ..MeshFitOptions::default()
-    };
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(40);
+    options.fit.max_iterations = 12;
     implicitize::fit_mesh(mesh, &options).unwrap().model
 }
 

@@ -44,7 +44,9 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
-    let options = BatchOptions { fit: args.fit.options(), sdf: args.sdf };
+    let mut options = BatchOptions::default();
+    options.fit = args.fit.options();
+    options.sdf = args.sdf;
     let bar = progress_bar(jobs.len() as u64, progress);
     let entries = batch::run(&jobs, &args.output, &options, threads, |entry| {
         report(entry, &bar, progress);
@@ -52,8 +54,10 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
     bar.finish_and_clear();
     batch::write_manifest(&args.output, &entries)?;
     let failed = entries.iter().filter(|e| e.status == Status::Failed).count();
+    let reused = entries.iter().filter(|e| e.reused).count();
     progress.line(format!(
-        "{} of {} meshes converted; wrote {}",
+        "{} of {} meshes converted ({reused} reused from an earlier run of the same input and \
+         options); wrote {}",
         entries.len() - failed,
         entries.len(),
         args.output.join(batch::MANIFEST).display()
@@ -86,6 +90,7 @@ fn progress_bar(len: u64, progress: Progress) -> ProgressBar {
 fn report(entry: &Entry, bar: &ProgressBar, progress: Progress) {
     let line = match (&entry.status, &entry.error) {
         (Status::Failed, Some(error)) => format!("{}: failed: {error}", entry.input),
+        _ if entry.reused => format!("{}: reused from an earlier run", entry.input),
         _ => format!(
             "{}: E {:.2} voxels, {} constraints, {:.1} s",
             entry.input,

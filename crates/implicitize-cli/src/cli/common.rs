@@ -5,15 +5,15 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use clap::Args;
-use implicitize::memory::{self, Estimate};
-use implicitize::{Grid, Mesh, Resolution, mesh, output, pipeline};
+use implicitize::memory::{Estimate, MemoryLimit};
+use implicitize::{Mesh, Resolution, mesh, output};
 
 /// The size of the voxel grid placed around the mesh.
 #[derive(Debug, Args)]
 pub struct GridArgs {
     /// Voxels along the mesh's longest axis, margins included (the paper's volumes: bunny 220,
     /// horse 337, triceratops 320).
-    #[arg(long, default_value_t = 200, conflicts_with = "dims")]
+    #[arg(long, default_value_t = Resolution::DEFAULT_LONGEST_AXIS, conflicts_with = "dims")]
     pub resolution: usize,
     /// An exact volume size instead of --resolution.
     #[arg(long, num_args = 3, value_names = ["NX", "NY", "NZ"])]
@@ -28,43 +28,20 @@ impl GridArgs {
             _ => Resolution::LongestAxis(self.resolution),
         }
     }
-
-    /// The grid around `mesh`, whose file is `path`.
-    pub fn grid_around(&self, mesh: &Mesh, path: &Path) -> anyhow::Result<Grid> {
-        Ok(pipeline::grid_around(mesh, self.resolution(), &path.display().to_string())?)
-    }
-
-    /// The grid around `mesh`, whose file is `path`, once `estimate` of the work on it (from
-    /// the grid's dimensions and the mesh's triangles) fits in the memory limit.
-    pub fn checked_grid(
-        &self,
-        mesh: &Mesh,
-        path: &Path,
-        estimate: fn([usize; 3], usize) -> Estimate,
-    ) -> anyhow::Result<Grid> {
-        let grid = self.grid_around(mesh, path)?;
-        let triangles = mesh.triangles.len();
-        check_memory(&estimate(grid.dims, triangles), |n| {
-            let grid = pipeline::grid_around(mesh, Resolution::LongestAxis(n), "").ok()?;
-            Some(estimate(grid.dims, triangles).bytes)
-        })
-        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-        Ok(grid)
-    }
 }
 
-/// The memory limit of `--memory-limit`, or else what the machine has available.
-static MEMORY_LIMIT: OnceLock<u64> = OnceLock::new();
+/// The memory limit of `--memory-limit`, or else what the machine has available; set once,
+/// before the subcommand runs.
+static MEMORY_LIMIT: OnceLock<MemoryLimit> = OnceLock::new();
 
-/// Sets the memory limit from `--memory-limit`, or to the available memory when `None`.
+/// Sets the memory limit from `--memory-limit` (bytes), or to the available memory when `None`.
 pub fn set_memory_limit(limit: Option<u64>) {
-    let limit = limit.or_else(memory::available).unwrap_or(u64::MAX);
-    MEMORY_LIMIT.get_or_init(|| limit);
+    MEMORY_LIMIT.get_or_init(|| limit.map_or(MemoryLimit::Available, MemoryLimit::Bytes));
 }
 
-/// The memory limit.
-pub fn memory_limit() -> u64 {
-    *MEMORY_LIMIT.get().unwrap_or(&u64::MAX)
+/// The memory limit the library's jobs take.
+pub fn memory_limit() -> MemoryLimit {
+    MEMORY_LIMIT.get().copied().unwrap_or_default()
 }
 
 /// Refuses `estimate` above the memory limit, naming the largest `--resolution` whose
@@ -73,11 +50,7 @@ pub fn check_memory(
     estimate: &Estimate,
     at_resolution: impl Fn(usize) -> Option<u64>,
 ) -> anyhow::Result<()> {
-    let limit = memory_limit();
-    Ok(estimate.check(limit, || {
-        memory::largest_fitting(2 * Grid::MARGIN + 2..=Grid::MAX_AXIS, limit, at_resolution)
-            .map(|n| format!("--resolution {n}"))
-    })?)
+    Ok(estimate.check_grid(memory_limit().bytes(), at_resolution)?)
 }
 
 /// Progress lines on stderr, unless --quiet.

@@ -4,12 +4,11 @@
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
-use implicitize::fit::{self, ErrorMeasure, FitOptions};
-use implicitize::memory::Estimate;
-use implicitize::pipeline::{self, MeshFitOptions, Prepared};
-use implicitize::{Mesh, mesh, output, polygonize};
+use implicitize::fit::{ErrorMeasure, FitOptions, IterationReport, MAX_CONSTRAINTS, naive};
+use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
+use implicitize::{Implicit, mesh, output};
 
-use super::common::{GridArgs, Progress, check_outputs, read_mesh, warn_if_open, write_report};
+use super::common::{GridArgs, Progress, memory_limit, read_mesh, warn_if_open};
 use super::render::{Snapshots, compare_picture};
 
 /// How the constraints are made.
@@ -21,7 +20,17 @@ pub enum Method {
     Naive,
 }
 
-/// The iterative fit's own settings, shared by `fit`, `demo` and `fit2d`.
+/// The `--max-constraints` help, with the library's limits.
+fn max_constraints_help() -> String {
+    format!(
+        "Never use more constraints than this [default: {MAX_CONSTRAINTS}; {} with --method \
+         naive, which uses half of them as mesh vertices]",
+        naive::DEFAULT_CONSTRAINTS
+    )
+}
+
+/// The iterative fit's own settings, shared by `fit`, `demo`, `batch` and `fit2d`; each
+/// default is the library's.
 #[derive(Debug, Args)]
 pub struct LoopArgs {
     /// Seed of the random choice of initial constraints (same seed, same model).
@@ -39,27 +48,23 @@ pub struct LoopArgs {
     /// targets of a voxel or less (a voxel-centre E is never below 0.5 and moves in steps)
     #[arg(long)]
     pub subvoxel: bool,
-    /// Never use more constraints than this [default: 50000; 2000 with --method naive, which
-    /// uses half of them as mesh vertices]
-    #[arg(long)]
+    #[arg(long, help = max_constraints_help())]
     pub max_constraints: Option<usize>,
 }
 
 impl LoopArgs {
-    /// The fit's options: these settings, the defaults for the rest.
-    pub fn options(&self) -> FitOptions {
-        FitOptions {
-            seed: self.seed,
-            max_iterations: self.max_iterations,
-            target_error: self.target_error,
-            error_measure: if self.subvoxel { ErrorMeasure::SubVoxel } else { ErrorMeasure::Voxel },
-            max_constraints: self.max_constraints.unwrap_or(FitOptions::default().max_constraints),
-            ..FitOptions::default()
-        }
+    /// Sets these settings on `options`.
+    pub fn apply(&self, options: &mut FitOptions) {
+        options.seed = self.seed;
+        options.max_iterations = self.max_iterations;
+        options.target_error = self.target_error;
+        options.error_measure =
+            if self.subvoxel { ErrorMeasure::SubVoxel } else { ErrorMeasure::Voxel };
+        options.max_constraints = self.max_constraints;
     }
 }
 
-/// The options of the fit itself, shared by `fit` and `demo`.
+/// The options of the fit itself, shared by `fit`, `demo` and `batch`.
 #[derive(Debug, Args)]
 pub struct FitArgs {
     #[command(flatten)]
@@ -76,25 +81,18 @@ pub struct FitArgs {
 }
 
 impl FitArgs {
-    /// The library's options for these flags.
+    /// The library's options for these flags, under the memory limit.
     pub fn options(&self) -> MeshFitOptions {
-        let mut options = self.settings.options();
-        if self.method == Method::Naive && self.settings.max_constraints.is_none() {
-            options.max_constraints = fit::naive::DEFAULT_CONSTRAINTS;
-        }
-        if self.full_resolution {
-            options.coarse_start_min_axis = usize::MAX;
-        }
-        let method = match self.method {
+        let mut options = MeshFitOptions::default();
+        options.resolution = self.grid.resolution();
+        options.method = match self.method {
             Method::Iterative => pipeline::Method::Iterative,
             Method::Naive => pipeline::Method::Naive,
         };
-        MeshFitOptions {
-            resolution: self.grid.resolution(),
-            method,
-            fit: options,
-            ..Default::default()
-        }
+        self.settings.apply(&mut options.fit);
+        options.fit.coarse_start = !self.full_resolution;
+        options.memory_limit = memory_limit();
+        options
     }
 }
 
@@ -120,13 +118,28 @@ pub struct FitCommand {
     pub fit: FitArgs,
 }
 
-/// Where a fit's results go.
-struct Outputs<'a> {
-    model: &'a Path,
-    report: Option<&'a Path>,
-    mesh: Option<&'a Path>,
-    snapshots: Option<&'a Path>,
-    compare: Option<&'a Path>,
+/// What the command line shows of a fit as it runs: the open-mesh warning, a line per
+/// iteration, and the pictures of `--snapshots`.
+struct Watch<'a> {
+    progress: Progress,
+    source: String,
+    snapshots_dir: Option<&'a Path>,
+    snapshots: Option<Snapshots<'a>>,
+}
+
+impl FitObserver for Watch<'_> {
+    fn prepared(&mut self, prepared: &Prepared<'_>) {
+        warn_if_open(&self.source, &prepared.inside().ambiguity);
+        self.snapshots =
+            self.snapshots_dir.map(|dir| Snapshots::new(dir, prepared.bounds(), prepared.grid()));
+    }
+
+    fn iteration(&mut self, report: &IterationReport, implicit: &Implicit) {
+        self.progress.line(report.line());
+        if let Some(snapshots) = self.snapshots.as_mut() {
+            snapshots.take(report.iteration, implicit);
+        }
+    }
 }
 
 /// Runs `implicitize fit`.
@@ -134,24 +147,22 @@ pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
     if args.snapshots.is_some() && args.fit.method != Method::Iterative {
         anyhow::bail!("--snapshots draws the iterations of --method iterative only");
     }
-    let files: Vec<&Path> =
-        [Some(args.output.as_path()), args.report.as_deref()].into_iter().flatten().collect();
-    let meshes: Vec<&Path> = args.mesh_out.iter().map(PathBuf::as_path).collect();
-    check_outputs(&files, &meshes)?;
+    let mut outputs = FitOutputs::default();
+    outputs.model = Some(args.output.clone());
+    outputs.report = args.report.clone();
+    outputs.surface = args.mesh_out.clone();
+    outputs.check()?;
     if let Some(dir) = &args.snapshots {
         output::prepare_folder(dir)?;
     }
     let mesh = read_mesh(&args.mesh, progress)?;
-    let mesh_bytes = std::fs::metadata(&args.mesh).ok().map(|m| m.len());
     let name = args.mesh.file_stem().map_or("mesh".into(), |s| s.to_string_lossy().into_owned());
-    let outputs = Outputs {
-        model: &args.output,
-        report: args.report.as_deref(),
-        mesh: args.mesh_out.as_deref(),
-        snapshots: args.snapshots.as_deref(),
-        compare: None,
-    };
-    fit_and_write(&mesh, &args.mesh, &name, mesh_bytes, &args.fit, &outputs, progress)
+    let bytes = std::fs::metadata(&args.mesh).ok().map(|m| m.len());
+    let source = args.mesh.display().to_string();
+    let from = MeshSource::Mesh { mesh: &mesh, name: &source, bytes };
+    let snapshots = args.snapshots.as_deref();
+    fit_and_write(from, &name, &args.fit, &outputs, snapshots, progress)?;
+    Ok(())
 }
 
 /// The built-in default model, compiled into the binary (see data/README.md).
@@ -172,67 +183,47 @@ pub fn demo(args: &DemoCommand, progress: Progress) -> anyhow::Result<()> {
     let source = Path::new("triceratops.obj (built in)");
     let (mesh, _) = mesh::read_bytes(TRICERATOPS_OBJ, mesh::Format::Obj, source)?;
     output::prepare_folder(&args.output)?;
-    let model = args.output.join("model.json");
-    let report = args.output.join("report.json");
-    let surface = args.output.join("surface.ply");
+    let mut outputs = FitOutputs::default();
+    outputs.model = Some(args.output.join("model.json"));
+    outputs.report = Some(args.output.join("report.json"));
+    outputs.surface = Some(args.output.join("surface.ply"));
     let compare = args.output.join("compare.png");
-    let outputs = Outputs {
-        model: &model,
-        report: Some(&report),
-        mesh: Some(&surface),
-        snapshots: None,
-        compare: Some(&compare),
-    };
-    let mesh_bytes = Some(TRICERATOPS_OBJ.len() as u64);
-    fit_and_write(&mesh, source, "triceratops", mesh_bytes, &args.fit, &outputs, progress)?;
+    let name = source.display().to_string();
+    let bytes = Some(TRICERATOPS_OBJ.len() as u64);
+    let from = MeshSource::Mesh { mesh: &mesh, name: &name, bytes };
+    let fitted = fit_and_write(from, "triceratops", &args.fit, &outputs, None, progress)?;
+    compare_picture(&mesh, &fitted.model, 800, 600)?.save_png(&compare)?;
+    let written = [&outputs.model, &outputs.report, &outputs.surface]
+        .map(|p| p.as_ref().map_or(String::new(), |p| p.display().to_string()));
     progress.line(format!(
         "wrote {}, {}, {} and {}",
-        model.display(),
-        report.display(),
-        surface.display(),
+        written[0],
+        written[1],
+        written[2],
         compare.display()
     ));
     Ok(())
 }
 
-/// Voxelizes, fits, and writes the model, the report and the surface.
+/// Runs the library's fit on `from` and prints its table under `name`.
 fn fit_and_write(
-    mesh: &Mesh,
-    source: &Path,
+    from: MeshSource<'_>,
     name: &str,
-    mesh_bytes: Option<u64>,
     args: &FitArgs,
-    outputs: &Outputs,
+    outputs: &FitOutputs,
+    snapshots: Option<&Path>,
     progress: Progress,
-) -> anyhow::Result<()> {
-    let options = args.options();
-    let grid = args.grid.checked_grid(mesh, source, Estimate::fit)?;
-    progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
-    let prepared = Prepared::new(mesh, &source.display().to_string(), &options)?;
-    warn_if_open(&source.display().to_string(), &prepared.ambiguity());
-    let mut snapshots =
-        outputs.snapshots.map(|dir| Snapshots::new(dir, prepared.bounds(), prepared.grid()));
-    let mut fitted = prepared.fit(|line, implicit| {
-        progress.line(line.line());
-        if let Some(snapshots) = snapshots.as_mut() {
-            snapshots.take(line.iteration, implicit);
-        }
-    })?;
-    if let Some(snapshots) = snapshots {
+) -> anyhow::Result<pipeline::Fitted> {
+    let source = match from {
+        MeshSource::Mesh { name, .. } => name.to_string(),
+        MeshSource::File(path) => path.display().to_string(),
+    };
+    progress.stage(format!("voxelizing {source}"));
+    let mut watch = Watch { progress, source, snapshots_dir: snapshots, snapshots: None };
+    let fitted = pipeline::fit(from, &args.options(), outputs, &mut watch)?;
+    if let Some(snapshots) = watch.snapshots {
         snapshots.finish()?;
     }
-    fitted.report.mesh_bytes = mesh_bytes;
-    fitted.save(outputs.model)?;
-    if let Some(path) = outputs.report {
-        write_report(path, &fitted.report)?;
-    }
-    if let Some(path) = outputs.mesh {
-        let surface = polygonize::polygonize_field(&fitted.model, &grid);
-        mesh::write(path, &surface)?;
-    }
-    if let Some(path) = outputs.compare {
-        compare_picture(mesh, &fitted.model, 800, 600)?.save_png(path)?;
-    }
     progress.line(fitted.report.table(name));
-    Ok(())
+    Ok(fitted)
 }

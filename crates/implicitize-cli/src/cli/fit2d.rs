@@ -12,7 +12,7 @@ use implicitize::memory::Estimate;
 use implicitize::model::Model;
 use implicitize::rbf::Implicit;
 
-use super::common::{Progress, check_memory, check_outputs, write_report};
+use super::common::{Progress, check_outputs, memory_limit, write_report};
 use super::fit::LoopArgs;
 
 /// Arguments of `implicitize fit2d`.
@@ -61,7 +61,8 @@ pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
         ImageOptions { threshold: args.threshold, blur: args.blur, invert: args.invert };
     let (density, bounds) = goal2d::read_density(&args.image, &image_options)?;
     let grid = density.grid;
-    check_memory(&Estimate::fit(grid.dims, 0), |_| None)
+    Estimate::fit(grid.dims, 0)
+        .check(memory_limit().bytes(), || None)
         .with_context(|| args.image.display().to_string())?;
     let figure_scale = args.figure_scale.unwrap_or_else(|| default_scale(grid.dims));
     if args.figure.is_some() {
@@ -73,7 +74,8 @@ pub fn run(args: &Fit2dCommand, progress: Progress) -> anyhow::Result<()> {
         grid.dims[0],
         grid.dims[1]
     ));
-    let options = args.settings.options();
+    let mut options = implicitize::fit::FitOptions::default();
+    args.settings.apply(&mut options);
     let goal = Goal::from_density(density, &options.regularity);
     let mut early: Vec<Implicit> = Vec::new();
     let fitted = fit::fit(&goal, &options, |line, implicit| {

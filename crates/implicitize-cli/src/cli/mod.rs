@@ -6,6 +6,8 @@
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use implicitize::error::FrontEnd;
+use implicitize::pipeline::VolumeKind;
 
 mod batch;
 mod common;
@@ -77,7 +79,8 @@ pub fn run() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            let message = implicitize::error::worded(&format!("{e:#}"), FrontEnd::Cli);
+            eprintln!("error: {message}");
             ExitCode::FAILURE
         }
     }
@@ -102,8 +105,8 @@ fn dispatch(command: &Command, progress: common::Progress) -> anyhow::Result<()>
         Command::Batch(args) => batch::run(args, progress),
         Command::Fit2d(args) => fit2d::run(args, progress),
         Command::Mesh(args) => polygonize::run(args, progress),
-        Command::Voxelize(args) => volume::run(args, volume::VolumeKind::Density, progress),
-        Command::Sdf(args) => volume::run(args, volume::VolumeKind::SignedDistance, progress),
+        Command::Voxelize(args) => volume::run(args, VolumeKind::Density, progress),
+        Command::Sdf(args) => volume::run(args, VolumeKind::SignedDistance, progress),
         Command::Solve(args) => solve::run(args, progress),
         Command::Eval(args) => eval::run(args, progress),
         Command::Render(args) => render::run(args, progress),

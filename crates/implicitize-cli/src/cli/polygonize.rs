@@ -3,11 +3,11 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use implicitize::memory::Estimate;
 use implicitize::model::Model;
-use implicitize::{Grid, Resolution, mesh, polygonize};
+use implicitize::pipeline::{self, PolygonizeOptions};
+use implicitize::{Resolution, mesh};
 
-use super::common::{Progress, check_memory, check_outputs};
+use super::common::{Progress, check_outputs, memory_limit};
 
 /// Arguments of `implicitize mesh`.
 #[derive(Debug, Args)]
@@ -18,7 +18,7 @@ pub struct MeshCommand {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Voxels along the longest axis of the model's bounds, margins included.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = Resolution::DEFAULT_LONGEST_AXIS)]
     pub resolution: usize,
     /// Evaluate the model at every voxel rather than follow its surface from its boundary
     /// constraints: slower, and also shows small or thin detached pieces far from them.
@@ -30,20 +30,13 @@ pub struct MeshCommand {
 pub fn run(args: &MeshCommand, progress: Progress) -> anyhow::Result<()> {
     check_outputs(&[], &[&args.output])?;
     let model = Model::load(&args.model)?;
-    let bounds = model.bounds();
-    let grid = Grid::around(&bounds, Resolution::LongestAxis(args.resolution))?;
-    check_memory(&Estimate::polygonize(grid.dims, args.dense), |n| {
-        let grid = Grid::around(&bounds, Resolution::LongestAxis(n)).ok()?;
-        Some(Estimate::polygonize(grid.dims, args.dense).bytes)
-    })
-    .map_err(|e| anyhow::anyhow!("{}: {e}", args.model.display()))?;
-    progress
-        .stage(format!("polygonizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
-    let surface = if args.dense {
-        polygonize::polygonize_field_dense(&model, &grid)
-    } else {
-        polygonize::polygonize_field(&model, &grid)
-    };
+    let mut options = PolygonizeOptions::default();
+    options.resolution = Resolution::LongestAxis(args.resolution);
+    options.dense = args.dense;
+    options.memory_limit = memory_limit();
+    progress.stage(format!("polygonizing {}", args.model.display()));
+    let source = args.model.display().to_string();
+    let surface = pipeline::polygonize(&model, &model.bounds(), &source, &options)?;
     mesh::write(&args.output, &surface)?;
     progress.line(format!(
         "wrote {}: {} triangles, {} vertices",

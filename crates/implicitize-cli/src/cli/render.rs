@@ -16,13 +16,13 @@ use implicitize::fit::Goal;
 use implicitize::memory::Estimate;
 use implicitize::metrics::RegularityOptions;
 use implicitize::model::Model;
+use implicitize::pipeline::{MeshFitOptions, Prepared};
 use implicitize::render::{
     Camera, Coloring, Image, March, Shading, grid_box, march_bounds, render_field, render_mesh,
 };
-use implicitize::voxelize::VoxelizeOptions;
-use implicitize::{Aabb, Field, Grid, Mesh, pipeline};
+use implicitize::{Aabb, Field, Grid, Mesh};
 
-use super::common::{GridArgs, Progress, check_memory, check_outputs, read_mesh};
+use super::common::{GridArgs, Progress, check_outputs, memory_limit, read_mesh};
 
 /// The default view: a three-quarter view from the front right and a little above.
 const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
@@ -114,7 +114,8 @@ pub fn run(args: &RenderCommand, progress: Progress) -> anyhow::Result<()> {
     check_outputs(&[&args.output], &[])?;
     let (width, height) = size(&args.size)?;
     let panels = if args.compare.is_some() { 2 } else { 1 };
-    check_memory(&Estimate::picture(width * panels, height), |_| None)
+    Estimate::picture(width * panels, height)
+        .check(memory_limit().bytes(), || None)
         .with_context(|| args.output.display().to_string())?;
     let [azimuth, elevation] = view(&args.view)?;
     let shape = Shape::read(&args.input, progress)?;
@@ -227,10 +228,12 @@ fn goal_of(
     progress: Progress,
 ) -> anyhow::Result<Goal> {
     let source = path.display().to_string();
-    let grid = grid_args.checked_grid(mesh, path, Estimate::fit)?;
-    progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
-    let options = VoxelizeOptions::default();
-    Ok(pipeline::goal_of_mesh(mesh, grid_args.resolution(), &options, regularity, &source)?)
+    progress.stage(format!("voxelizing {source}"));
+    let mut options = MeshFitOptions::default();
+    options.resolution = grid_args.resolution();
+    options.fit.regularity = *regularity;
+    options.memory_limit = memory_limit();
+    Ok(Prepared::new(mesh, &source, &options)?.into_goal())
 }
 
 /// The picture of one fit iteration's implicit surface (paper figure 1): `field` marched over

@@ -3,10 +3,9 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use implicitize::memory::Estimate;
-use implicitize::{pipeline, voxelize};
+use implicitize::pipeline::{self, VolumeOptions};
 
-use super::common::{GridArgs, Progress, check_outputs, read_mesh, warn_if_open};
+use super::common::{GridArgs, Progress, check_outputs, memory_limit, read_mesh, warn_if_open};
 
 /// Arguments of `voxelize` and `sdf`.
 #[derive(Debug, Args)]
@@ -21,31 +20,23 @@ pub struct VolumeArgs {
     pub output: PathBuf,
 }
 
-/// Which volume to write.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum VolumeKind {
-    /// Densities in [0, 1], 1 inside.
-    Density,
-    /// Signed Euclidean distance in voxels, inside positive.
-    SignedDistance,
-}
-
 /// Voxelizes the mesh and writes the densities or the signed distance.
-pub fn run(args: &VolumeArgs, kind: VolumeKind, progress: Progress) -> anyhow::Result<()> {
+pub fn run(
+    args: &VolumeArgs,
+    kind: pipeline::VolumeKind,
+    progress: Progress,
+) -> anyhow::Result<()> {
     check_outputs(&[&args.output, &args.output.with_extension("json")], &[])?;
     let mesh = read_mesh(&args.mesh, progress)?;
-    let grid = args.grid.checked_grid(&mesh, &args.mesh, Estimate::volume)?;
-    progress.stage(format!("voxelizing on {} x {} x {}", grid.dims[0], grid.dims[1], grid.dims[2]));
-    let options = voxelize::VoxelizeOptions::default();
+    progress.stage(format!("voxelizing {}", args.mesh.display()));
+    let mut options = VolumeOptions::default();
+    options.resolution = args.grid.resolution();
+    options.memory_limit = memory_limit();
     let source = args.mesh.display().to_string();
-    let (volume, ambiguity) = match kind {
-        VolumeKind::Density => voxelize::voxelize_reporting(&mesh, &grid, &options)?,
-        VolumeKind::SignedDistance => {
-            pipeline::signed_distance_reporting(&mesh, args.grid.resolution(), &options, &source)?
-        }
-    };
-    warn_if_open(&source, &ambiguity);
+    let (volume, inside) = pipeline::volume(&mesh, &source, kind, &options)?;
+    warn_if_open(&source, &inside.ambiguity);
     volume.save_npy(&args.output)?;
+    let grid = volume.grid;
     progress.line(format!(
         "wrote {} ({} x {} x {}, voxel size {})",
         args.output.display(),
