@@ -33,7 +33,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, FrontEnd, Result};
 use crate::pipeline::{self, FitOutputs, Fitted, MeshFitOptions, MeshSource};
 
 /// The extensions of the mesh files a folder is searched for (any case).
@@ -51,6 +51,9 @@ pub struct BatchOptions {
     pub fit: MeshFitOptions,
     /// Also write the signed distance volume of the fit's grid.
     pub sdf: bool,
+    /// Whose user reads the manifest's errors, and so how they name settings.
+    #[serde(skip)]
+    pub wording: FrontEnd,
 }
 
 /// What made a mesh's outputs: its input file as it was and the options, so that a rerun
@@ -264,7 +267,7 @@ pub fn convert(job: &Job, out: &Path, options: &BatchOptions) -> Entry {
     let clock = Instant::now();
     let origin = match Origin::of(&job.input, options) {
         Ok(origin) => origin,
-        Err(e) => return failed_entry(job, e.to_string(), None, 0.0),
+        Err(e) => return failed_entry(job, e.worded(options.wording), None, 0.0),
     };
     let outputs = Outputs::of(job, out, options.sdf);
     if let Some(done) = outputs.complete(&origin) {
@@ -280,7 +283,7 @@ pub fn convert(job: &Job, out: &Path, options: &BatchOptions) -> Entry {
     let seconds = clock.elapsed().as_secs_f64();
     let mut entry = match result {
         Ok(fitted) => ok_entry(job, &fitted, origin, seconds),
-        Err(e) => failed_entry(job, e.to_string(), Some(origin), seconds),
+        Err(e) => failed_entry(job, e.worded(options.wording), Some(origin), seconds),
     };
     if entry.status == Status::Ok {
         let line = serde_json::to_string(&entry).expect("an entry always serializes");

@@ -117,9 +117,10 @@ impl Error {
 }
 
 /// Who shows an error to its user, and so how it names the library's settings.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub enum FrontEnd {
     /// The command line: `--max-iterations`, `--resolution 812`.
+    #[default]
     Cli,
     /// Python's keyword arguments: `max_iterations`, `resolution=812`.
     Python,

@@ -61,6 +61,7 @@ pub fn batch_convert(
     let mut options = BatchOptions::default();
     options.fit = fit;
     options.sdf = sdf;
+    options.wording = implicitize::error::FrontEnd::Python;
     let job = Job { input, name };
     let entry = py.detach(|| {
         std::fs::create_dir_all(&out_dir)

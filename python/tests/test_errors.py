@@ -60,7 +60,9 @@ def test_bad_arrays_are_valueerrors(mesh, message):
     [
         ({"resolution": 0}, "resolution must be a positive number of voxels, not 0"),
         ({"target_error": float("nan")}, "target_error must be a finite number"),
-        ({"method": "magic"}, "method must be 'iterative' or 'naive'"),
+        ({"method": "magic"}, 'method must be "iterative" or "naive", not "magic"'),
+        ({"max_iterations": 0}, "max_iterations must be a positive count, not 0"),
+        ({"memory_limit": "lots"}, 'memory size "lots": expected a positive number'),
         ({"max_constraints": -5}, "max_constraints must be a positive count, not -5"),
         ({"dims": [10, 10]}, "dims: expected 3 sizes"),
     ],

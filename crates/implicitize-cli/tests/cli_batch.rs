@@ -1,5 +1,6 @@
 //! `implicitize batch` through the binary: a folder of good, broken and unreadable meshes, the
-//! manifest that lists every one, outputs equal to `fit` and `sdf`, and a rerun that skips.
+//! manifest that lists every one, outputs equal to `fit` and `sdf`, and reruns that reuse
+//! exactly the meshes whose input and options are unchanged.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -95,8 +96,10 @@ fn outputs_equal_fit_and_sdf_and_a_rerun_skips_them() {
     std::fs::write(lib.join("broken.obj"), std::fs::read(triceratops()).unwrap()).unwrap();
     let o = batch(&lib, &out);
     assert_eq!(o.status.code(), Some(1), "empty and unreadable still fail");
-    let after = manifest(&out);
-    assert_eq!(after[2], before[2], "good.obj was skipped: its stored line");
+    let mut after = manifest(&out);
+    assert_eq!(after[2]["reused"], true, "good.obj was skipped");
+    after[2]["reused"] = false.into();
+    assert_eq!(after[2], before[2], "good.obj's line is the stored one");
     assert_eq!(std::fs::metadata(out.join("good.json")).unwrap().modified().unwrap(), modified);
     assert_eq!(after[0]["status"], "ok", "the repaired mesh is converted on the rerun");
     let stray: Vec<_> = std::fs::read_dir(&out)
@@ -120,4 +123,58 @@ fn lists_name_meshes_relative_to_themselves() {
     let entries = manifest(&out);
     assert_eq!(entries.len(), 2, "a repeated input is converted once");
     assert!(entries.iter().all(|e| e["status"] == "ok"));
+}
+
+/// Runs a batch of `lib` into `out` at `resolution`; the entries, and the count of reused
+/// meshes the summary line gives.
+fn batch_at(lib: &Path, out: &Path, resolution: &str) -> (Vec<serde_json::Value>, usize) {
+    let args = [p("batch"), lib, p("-o"), out, p("--resolution"), p(resolution)];
+    let o = run(&[&args[..], &[p("--jobs"), p("2")]].concat());
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{stderr}");
+    let summary = stderr.lines().find(|l| l.contains("meshes converted")).expect(&stderr);
+    let reused = summary.split('(').nth(1).and_then(|t| t.split(' ').next()).unwrap();
+    (manifest(out), reused.parse().unwrap())
+}
+
+#[test]
+fn a_rerun_refits_what_another_resolution_or_a_touched_mesh_changes_and_reuses_the_rest() {
+    let dir = tempfile::tempdir().unwrap();
+    let lib = dir.path().join("lib");
+    std::fs::create_dir(&lib).unwrap();
+    for name in ["a.obj", "b.obj", "c.obj"] {
+        std::fs::copy(triceratops(), lib.join(name)).unwrap();
+    }
+    let out = dir.path().join("out");
+    let (first, reused) = batch_at(&lib, &out, "32");
+    assert_eq!(reused, 0);
+    assert!(first.iter().all(|e| e["status"] == "ok" && e["reused"] == false), "{first:?}");
+    let origin = &first[0]["origin"];
+    assert_eq!(origin["bytes"], std::fs::metadata(triceratops()).unwrap().len());
+    assert_eq!(origin["options"]["fit"]["resolution"]["longest_axis"], 32);
+    assert_eq!(origin["blake3"].as_str().unwrap().len(), 64);
+
+    let model_at_32 = std::fs::read(out.join("a.json")).unwrap();
+    let (same, reused) = batch_at(&lib, &out, "32");
+    assert_eq!(reused, 3, "an unchanged folder reuses every mesh");
+    assert!(same.iter().all(|e| e["reused"] == true));
+
+    let (other, reused) = batch_at(&lib, &out, "36");
+    assert_eq!(reused, 0, "another resolution refits every mesh");
+    assert!(other.iter().all(|e| e["origin"]["options"]["fit"]["resolution"]["longest_axis"] == 36));
+    assert_ne!(std::fs::read(out.join("a.json")).unwrap(), model_at_32, "a.json was refitted");
+
+    // Touching b.obj (same contents, a newer modification time) refits b only.
+    let b = std::fs::File::options().write(true).open(lib.join("b.obj")).unwrap();
+    let later = std::fs::metadata(lib.join("b.obj")).unwrap().modified().unwrap()
+        + std::time::Duration::from_secs(2);
+    b.set_modified(later).unwrap();
+    let (touched, reused) = batch_at(&lib, &out, "36");
+    assert_eq!(reused, 2, "only the touched mesh is refitted");
+    let refitted: Vec<&str> = touched
+        .iter()
+        .filter(|e| e["reused"] == false)
+        .map(|e| e["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(refitted, ["b"]);
 }

@@ -112,6 +112,39 @@ fn under_an_address_space_limit_the_refusal_comes_instead_of_an_abort() {
 }
 
 #[test]
+fn a_batch_under_an_address_space_limit_lists_each_refusal_and_writes_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let lib = dir.path().join("lib");
+    std::fs::create_dir(&lib).unwrap();
+    for name in ["a.obj", "b.obj"] {
+        std::fs::copy(triceratops(), lib.join(name)).unwrap();
+    }
+    let out = dir.path().join("out");
+    let script = format!(
+        "ulimit -v 3000000; exec '{}' batch '{}' -o '{}' --resolution 4096 --jobs 2 --quiet",
+        bin(),
+        lib.display(),
+        out.display()
+    );
+    let o = Command::new("sh").args(["-c", &script]).output().unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(!stderr.contains("panicked") && !stderr.contains("memory allocation"), "{stderr}");
+    let manifest = std::fs::read_to_string(out.join("manifest.jsonl")).unwrap();
+    for line in manifest.lines() {
+        let entry: serde_json::Value = serde_json::from_str(line).unwrap();
+        assert_eq!(entry["status"], "failed");
+        let error = entry["error"].as_str().unwrap();
+        for part in BUDGET {
+            assert!(error.contains(part), "{part:?} not in {error}");
+        }
+        assert!((8..4096).contains(&largest(error)), "{error}");
+    }
+    let files: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(files, ["manifest.jsonl"], "nothing but the manifest is written");
+}
+
+#[test]
 fn polygonizing_and_pictures_are_budgeted_too() {
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("ball.json");
