@@ -5,7 +5,7 @@
 //! The limit is by default what the machine can give ([`available`]): the kernel's estimate of
 //! the memory available to new work (`MemAvailable` in `/proc/meminfo`), and no more than this
 //! process's address-space limit (`ulimit -v`) leaves. The estimates are upper bounds of the
-//! peak resident memory measured on real meshes (see the README's table): so many bytes per
+//! peak resident memory measured on real meshes (see docs/robustness.md): so many bytes per
 //! voxel of each grid the work keeps, per triangle of the mesh, per pixel of a picture, plus a
 //! fixed allowance for the program itself.
 //!
