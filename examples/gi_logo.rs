@@ -1,5 +1,5 @@
 //! Writes a logo-like test picture for `implicitize fit2d`: the letters "GI" as thick black
-//! blocks on white, 320 x 220 pixels, 8-bit grey PNG. The README's figure 2 comes from it:
+//! blocks on white, 320 x 220 pixels, 8-bit grey PNG. The figure 2 of docs/cli.md comes from it:
 //!
 //! ```text
 //! cargo run --release --example gi_logo -- docs/images/gi.png

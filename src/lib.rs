@@ -60,11 +60,13 @@
 //!   ([`Error`]) names the file or the input and what was wrong.
 //!
 //! ## Limits
-//! * Features thinner than a voxel are lost in voxelization, and a detached piece of the
-//!   current surface smaller than 4 voxels far from the goal can be missed by the
-//!   coarse-to-fine evaluation (paper 5.2), as in the paper.
+//! * Features thinner than a voxel are lost in voxelization. A detached piece of the current
+//!   surface smaller than a coarse cube of the coarse-to-fine evaluation (4 voxels across, 8 on
+//!   grids of 256 voxels or more along an axis) and more than 8 voxels from the goal's surface
+//!   can be missed by that evaluation (paper 5.2), as in the paper (see
+//!   `rbf::evaluate_on_grid`).
 //! * Dense volumes of the whole grid are kept during a fit: memory and time grow with the
-//!   grid's voxels (a fit at 512 voxels along the longest axis takes minutes and gigabytes).
+//!   grid's voxels, and the memory budget ([`memory`]) refuses a grid that does not fit.
 //! * Open meshes are closed as the generalized winding number closes them.
 //!
 //! ## Stages

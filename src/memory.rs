@@ -6,7 +6,7 @@
 //! give ([`available`]), the kernel's estimate of the memory available to new work
 //! (`MemAvailable` in `/proc/meminfo`), and no more than this process's address-space limit
 //! (`ulimit -v`) leaves. The estimates are upper bounds of the peak resident memory of the
-//! real jobs (a test measures them on real meshes): so many bytes per voxel of each grid the
+//! real jobs (a test measures them on real meshes; docs/robustness.md has the table): so many bytes per voxel of each grid the
 //! work keeps, per triangle of the mesh, per pixel of a picture, per constraint of a solve,
 //! plus a fixed allowance for the program itself.
 //!

@@ -87,9 +87,9 @@ pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
 /// Refuses a header longer than [`MAX_HEADER`], nested deeper than [`MAX_HEADER_NESTING`],
 /// holding a backslash, or with a shape whose entries are not whole numbers or whose non-zero
 /// entries multiply past 2^64, before npyz parses it. Found by fuzzing: npyz's parser takes
-/// time exponential in the depth of unclosed brackets (a 200-byte header of 30 `[` ran for
-/// minutes), and it multiplies the shape's entries unchecked (an overflow, a panic where
-/// overflow checks are on). The arrays read here
+/// time exponential in the depth of unclosed brackets (a 200-byte header of 30 `[` ran past
+/// the fuzzer's timeout), and it multiplies the shape's entries unchecked (an overflow, a
+/// panic where overflow checks are on). The arrays read here
 /// have a plain dtype, so no valid header of theirs nests deeper. Bytes too short to hold a
 /// header are left to npyz's own error.
 fn check_header(bytes: &[u8], path: &Path) -> Result<()> {
@@ -180,8 +180,8 @@ mod tests {
         assert_eq!(values[11], 11.0);
     }
 
-    /// The fuzzer's input (shape, then 30 unclosed `[`), which npyz's parser took minutes over:
-    /// refused at once, naming the file.
+    /// The fuzzer's input (shape, then 30 unclosed `[`), on which npyz's parser ran past the
+    /// fuzzer's timeout: refused at once, naming the file.
     #[test]
     fn deeply_nested_brackets_are_refused_before_parsing() {
         let header = format!(

@@ -1,7 +1,7 @@
 //! `implicitize::shader`: the WGSL of models parses and validates (naga), for every kernel and
 //! for composites; the GLSL has the entry points; models the shaders cannot hold are refused.
 //! (The GLSL's compilation by glslangValidator and its values on a GPU are tested through the
-//! command: crates/implicitize-cli/tests/cli_export.rs and python/tests/test_viewer.py.)
+//! command: crates/implicitize-cli/tests/cli_view.rs and python/tests/test_viewer.py.)
 
 #[path = "common/balls.rs"]
 mod balls;

@@ -100,7 +100,7 @@ def _client(scheduler: Optional[str], workers: Optional[int]) -> Any:
         return Client(scheduler)
     n = workers or os.cpu_count() or 1
     # Each worker's fits run on a rayon pool of its share of the cores: pools of all the cores
-    # in every worker would oversubscribe them (measured: 14% slower for 12 meshes on 2 cores).
+    # in every worker would oversubscribe them (see docs/results.md, batch conversion).
     share = str(max(1, (os.cpu_count() or 1) // n))
     cluster = LocalCluster(
         n_workers=n,

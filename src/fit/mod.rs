@@ -467,9 +467,9 @@ fn measure(
     Measured { metrics, goal_side, current_side }
 }
 
-/// The volume passes sum in single precision (twice as fast) while that misplaces the surface by
-/// at most this fraction of the target E ([`single_precision_error`]), in double precision
-/// beyond.
+/// The volume passes sum in single precision (twice the lanes per vector) while that
+/// misplaces the surface by at most this fraction of the target E
+/// ([`single_precision_error`]), in double precision beyond.
 ///
 /// Measured at the boundary constraints of the models the fits keep: at the paper's sizes
 /// (460 to 730 centres) single precision moves the surface by 0.02 to 0.05 voxels at most,

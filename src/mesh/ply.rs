@@ -2,8 +2,8 @@
 //!
 //! Built on `ply-rs-bw`: its parser reads the header and decodes ASCII elements one at a time;
 //! binary elements are decoded here straight from the header's property types (the parser
-//! hands every property of every element over by name, which took most of the time of reading
-//! a mesh of millions of triangles). The file is read element by element so that every error
+//! hands every property of every element over by name, too slow for meshes of millions of
+//! triangles). The file is read element by element so that every error
 //! carries its place in the file (the line for ASCII, the byte offset where the element starts
 //! for binary). What it accepts:
 //! - a `vertex` element with scalar `x`, `y` and `z` properties of any numeric type (float and
