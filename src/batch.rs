@@ -259,7 +259,7 @@ fn fit_and_write(job: &Job, outputs: &Outputs, options: &BatchOptions) -> Result
     let (mesh, _) = mesh::read(&job.input)?;
     let prepared = Prepared::new(&mesh, &job.input.display().to_string(), &options.fit)?;
     if options.sdf {
-        prepared.goal().sd.save_npy(&outputs.sdf)?;
+        prepared.goal().sd().save_npy(&outputs.sdf)?;
     }
     let mut fitted = prepared.fit(|_, _| {})?;
     fitted.report.mesh_bytes = std::fs::metadata(&job.input).ok().map(|m| m.len());
