@@ -15,10 +15,8 @@ use std::time::Instant;
 
 use criterion::{Criterion, criterion_group};
 use implicitize::polygonize::polygonize_field_dense;
-use implicitize::rbf::read_constraints;
-use implicitize::{
-    Aabb, DVec3, Field, Grid, Implicit, Kernel, Resolution, Volume, polygonize, polygonize_field,
-};
+use implicitize::{DVec3, Field, Grid, Resolution, Volume, polygonize, polygonize_field};
+use implicitize_test_support::data::bunny;
 
 /// The bunny volume's size in the paper-scale runs.
 const DIMS: [usize; 3] = [176, 220, 218];
@@ -81,20 +79,10 @@ fn benches(c: &mut Criterion) {
     group.finish();
 }
 
-/// The bunny's 700 constraints solved, and a grid of 256 voxels along their longest axis.
-fn bunny() -> (Implicit, Grid) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bunny_constraints.csv");
-    let (dim, constraints) = read_constraints(&path).expect("the bunny's constraints");
-    let implicit = Implicit::solve(dim, Kernel::ThinPlate, &constraints).expect("a solved bunny");
-    let positions: Vec<DVec3> =
-        constraints.iter().map(|c| DVec3::from_slice(c.position())).collect();
-    let bounds = Aabb::of_points(&positions).expect("constraints");
-    let grid = Grid::around(&bounds, Resolution::LongestAxis(256)).expect("a grid");
-    (implicit, grid)
-}
-
 fn fitted(c: &mut Criterion) {
-    let (implicit, grid) = bunny();
+    // The bunny's 700 constraints solved, on a grid of 256 voxels along their longest axis.
+    let (implicit, bounds) = bunny();
+    let grid = Grid::around(&bounds, Resolution::LongestAxis(256)).expect("a grid");
     let [nx, ny, nz] = grid.dims;
     let mut group = c.benchmark_group("polygonize fitted bunny");
     group.sample_size(10);

@@ -9,12 +9,11 @@
 //! * `grid_200/N`: coarse-to-fine evaluation over a 200^3 grid of a sphere model with N
 //!   constraints, with the goal shell, as the fit runs it every iteration.
 
-use std::path::Path;
-
 use criterion::{Criterion, criterion_group, criterion_main};
 use implicitize::rbf::Normalization;
-use implicitize::rbf::{evaluate_on_grid, read_constraints};
+use implicitize::rbf::evaluate_on_grid;
 use implicitize::{Aabb, Constraint, DVec3, Grid, Implicit, Kernel, Resolution, Volume};
+use implicitize_test_support::data::bunny;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -44,12 +43,7 @@ fn solve(c: &mut Criterion) {
 }
 
 fn eval(c: &mut Criterion) {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bunny_constraints.csv");
-    let (_, constraints) = read_constraints(&data).unwrap();
-    let implicit = Implicit::solve(3, Kernel::ThinPlate, &constraints).unwrap();
-    let positions: Vec<DVec3> =
-        constraints.iter().map(|c| DVec3::from_slice(c.position())).collect();
-    let bounds = Aabb::of_points(&positions).unwrap();
+    let (implicit, bounds) = bunny();
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     let points: Vec<[f64; 3]> = (0..500_000)
         .map(|_| {

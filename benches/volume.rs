@@ -2,16 +2,14 @@
 //! resolution (320 voxels along its longest axis). `scripts/bench-volume.sh` compares the
 //! whole `implicitize sdf` process with the Python peer on the Stanford bunny.
 
-use std::path::Path;
-
 use criterion::{Criterion, criterion_group, criterion_main};
 use implicitize::distance::{inside, signed_distance};
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
 use implicitize::{Grid, Resolution};
+use implicitize_test_support::data::triceratops;
 
 fn volume(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj");
-    let (mesh, _) = implicitize::mesh::read(&path).expect("the built-in triceratops");
+    let (mesh, _) = implicitize::mesh::read(triceratops()).expect("the built-in triceratops");
     let grid = Grid::around(&mesh.bounds().unwrap(), Resolution::LongestAxis(320)).unwrap();
     let options = VoxelizeOptions::default();
     let mut group = c.benchmark_group("triceratops_320");

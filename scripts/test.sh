@@ -3,12 +3,16 @@
 # the workspace, then the Python package built once and its tests.
 #
 # 1. `cargo test --release --workspace --locked` (library, command, doctests; it also builds
-#    target/release/implicitize, whose outputs the Python tests compare against).
-# 2. A virtual environment in target/venv (ignored by git, kept between runs) with the packages
-#    of python/requirements-test.txt from PyPI.
+#    release/implicitize in cargo's target directory, whose outputs the Python tests compare
+#    against).
+# 2. A virtual environment in target/venv of the repository (ignored by git, kept between runs)
+#    with the packages of python/requirements-test.txt from PyPI.
 # 3. The package built by maturin in release, into the same target directory as cargo (so the
 #    library is compiled once), and installed into the environment.
 # 4. pytest over python/tests.
+#
+# Cargo's target directory is the one cargo itself reports, so CARGO_TARGET_DIR (or a
+# build.target-dir in a cargo configuration) is honoured, inside the repository or outside it.
 #
 # First, what the viewer and shader tests run (Debian packages, installed with apt-get only where
 # missing, through sudo when not root): chromium and chromedriver (the page of `implicitize
@@ -40,6 +44,9 @@ install_missing
 
 cargo test --release --workspace --locked
 
+target=$(cargo metadata --format-version 1 --no-deps --locked |
+    python3 -c 'import json, sys; print(json.load(sys.stdin)["target_directory"])')
+
 venv=$root/target/venv
 if [ ! -x "$venv/bin/python" ]; then
     python3 -m venv "$venv"
@@ -49,7 +56,7 @@ fi
 
 # maturin from the environment (the build backend), cargo's target directory, no rebuild of
 # what `cargo test` compiled unless the extension's flags differ.
-PATH="$venv/bin:$PATH" CARGO_TARGET_DIR="$root/target" \
+PATH="$venv/bin:$PATH" CARGO_TARGET_DIR="$target" \
     "$venv/bin/python" -m pip install --quiet --no-build-isolation --no-deps --force-reinstall ./python
 
-IMPLICITIZE_BIN="$root/target/release/implicitize" "$venv/bin/python" -m pytest python/tests -q -p no:cacheprovider
+IMPLICITIZE_BIN="$target/release/implicitize" "$venv/bin/python" -m pytest python/tests -q -p no:cacheprovider

@@ -83,7 +83,7 @@
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
 //! | a mesh to a fitted model in one call | [`pipeline`] | |
 //! | the shapes a model holds; save and load models | [`shape`], [`model`] | |
-//! | a 2D goal from a PNG image; figures 2 and 3 | [`goal2d`], [`figure2`], [`figure3`] | 4.3 |
+//! | a 2D goal from a PNG image | [`goal2d`] | 4.3 |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //! | GLSL and WGSL source of a model, for GPUs and the viewer | [`shader`] | |
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
@@ -99,8 +99,6 @@ pub mod csg;
 pub mod distance;
 pub mod error;
 pub mod field;
-pub mod figure2;
-pub mod figure3;
 pub mod fit;
 pub mod geometry;
 pub mod goal2d;

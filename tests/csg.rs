@@ -1,19 +1,14 @@
 //! Constructive solid geometry on implicit models (paper 1): signs, smooth blends, surfaces,
 //! the model file.
 
-#[path = "common/balls.rs"]
-mod balls;
-#[path = "common/topology.rs"]
-mod topology;
-
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::shape::Shape;
 use implicitize::{Aabb, DVec3, Field, Grid, Resolution, polygonize};
+use implicitize_test_support::models::{ball, disc_2d};
+use implicitize_test_support::topology;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-
-use balls::{ball, disc_2d};
 
 fn two_balls() -> (Model, Model) {
     (ball(DVec3::ZERO, 1.0, 1.0), ball(DVec3::new(1.1, 0.3, -0.2), 0.7, 3.0))

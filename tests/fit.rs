@@ -1,11 +1,11 @@
 //! The iterative fit (paper 5) end to end on shapes with known answers.
 
-mod common;
-
 use implicitize::fit::{FitOptions, Goal};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions, Method};
 use implicitize::rbf::SinglePrecision;
 use implicitize::{DVec3, Field, Grid, Mesh, Resolution, polygonize, voxelize};
+use implicitize_test_support::data::triceratops;
+use implicitize_test_support::meshes::{max_vertex_distance, sphere, torus};
 
 /// Fits `mesh` at `resolution` with `options`, through the front door.
 fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> Fitted {
@@ -29,8 +29,8 @@ fn distances_to(fitted: &Fitted, mesh: &Mesh) -> (f64, f64) {
     let grid = fitted.model.grid().expect("a fitted model has its grid");
     let surface = polygonize::polygonize_field(&fitted.model, grid);
     assert!(!surface.triangles.is_empty(), "the model has a surface");
-    let there = common::max_vertex_distance(&surface, mesh) / grid.voxel_size;
-    let back = common::max_vertex_distance(mesh, &surface) / grid.voxel_size;
+    let there = max_vertex_distance(&surface, mesh) / grid.voxel_size;
+    let back = max_vertex_distance(mesh, &surface) / grid.voxel_size;
     (there, back)
 }
 
@@ -39,7 +39,7 @@ fn distances_to(fitted: &Fitted, mesh: &Mesh) -> (f64, f64) {
 /// each other, measured on the meshes themselves.
 #[test]
 fn a_torus_is_fitted_within_two_voxels() {
-    let torus = common::torus(2.0, 0.7, 96, 48);
+    let torus = torus(2.0, 0.7, 96, 48);
     let fitted = fit_mesh(&torus, 64, &FitOptions::default());
     let report = &fitted.report;
     assert!(report.max_error_voxels <= 2.0, "E = {} voxels", report.max_error_voxels);
@@ -59,7 +59,7 @@ fn a_torus_is_fitted_within_two_voxels() {
 /// reported E is not larger than the measured distance plus one voxel.
 #[test]
 fn the_polygonized_fit_is_as_close_to_the_mesh_as_the_report_says() {
-    let torus = common::torus(2.0, 0.7, 96, 48);
+    let torus = torus(2.0, 0.7, 96, 48);
     let options = with_iterations(1);
     let fitted = fit_mesh(&torus, 64, &options);
     let reported = f64::from(fitted.report.max_error_voxels);
@@ -71,7 +71,7 @@ fn the_polygonized_fit_is_as_close_to_the_mesh_as_the_report_says() {
 
 #[test]
 fn the_same_seed_gives_the_same_model_and_another_seed_another() {
-    let torus = common::torus(2.0, 0.7, 64, 32);
+    let torus = torus(2.0, 0.7, 64, 32);
     let options = with_iterations(4);
     let a = fit_mesh(&torus, 48, &options);
     let b = fit_mesh(&torus, 48, &options);
@@ -84,7 +84,7 @@ fn the_same_seed_gives_the_same_model_and_another_seed_another() {
 
 #[test]
 fn a_scaled_and_moved_mesh_gives_the_same_fit_in_voxels() {
-    let torus = common::torus(2.0, 0.7, 64, 32);
+    let torus = torus(2.0, 0.7, 64, 32);
     let far = Mesh {
         vertices: torus.vertices.iter().map(|&v| v * 1000.0 + DVec3::new(1e5, -2e5, 3e5)).collect(),
         triangles: torus.triangles.clone(),
@@ -108,7 +108,7 @@ fn a_scaled_and_moved_mesh_gives_the_same_fit_in_voxels() {
 /// the sphere, and where there is no nearest point (the centre) there is none.
 #[test]
 fn points_near_the_goal_project_onto_its_surface() {
-    let sphere = common::sphere(DVec3::ZERO, 1.0, 48, 96);
+    let sphere = sphere(DVec3::ZERO, 1.0, 48, 96);
     let grid = Grid::around(&sphere.bounds().unwrap(), Resolution::LongestAxis(48)).unwrap();
     let density = voxelize::voxelize(&sphere, &grid, &Default::default()).unwrap().density;
     let goal = Goal::from_density(density, &FitOptions::default().regularity);
@@ -134,15 +134,14 @@ fn points_near_the_goal_project_onto_its_surface() {
 /// paper's 320 voxels, Newton steps alone left 35 of 64,056 such points without one.
 #[test]
 fn points_where_the_densities_saturate_project_onto_the_surface() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/data/triceratops.obj");
-    let (triceratops, _) = implicitize::mesh::read(std::path::Path::new(path)).unwrap();
+    let (triceratops, _) = implicitize::mesh::read(triceratops()).unwrap();
     let bounds = triceratops.bounds().unwrap();
     let grid = Grid::around(&bounds, Resolution::LongestAxis(320)).unwrap();
     let density = voxelize::voxelize(&triceratops, &grid, &Default::default()).unwrap().density;
     let goal = Goal::from_density(density, &FitOptions::default().regularity);
     let (mut lost, mut far, mut total) = (0, 0, 0);
-    for &s in goal.surface.iter().step_by(7) {
-        let normal = implicitize::distance::gradient(&goal.sd, s).normalize_or_zero();
+    for &s in goal.surface().iter().step_by(7) {
+        let normal = implicitize::distance::gradient(goal.sd(), s).normalize_or_zero();
         if normal == DVec3::ZERO || goal.sub_voxel().signed_distance(s).abs() > 0.1 {
             continue;
         }
@@ -164,8 +163,8 @@ fn points_where_the_densities_saturate_project_onto_the_surface() {
 
 #[test]
 fn two_separate_spheres_are_both_found() {
-    let mut spheres = common::sphere(DVec3::ZERO, 1.0, 24, 48);
-    let other = common::sphere(DVec3::new(3.0, 0.0, 0.0), 0.8, 24, 48);
+    let mut spheres = sphere(DVec3::ZERO, 1.0, 24, 48);
+    let other = sphere(DVec3::new(3.0, 0.0, 0.0), 0.8, 24, 48);
     let offset = spheres.vertices.len() as u32;
     spheres.vertices.extend(other.vertices);
     spheres.triangles.extend(other.triangles.iter().map(|t| t.map(|i| i + offset)));
@@ -181,7 +180,7 @@ fn two_separate_spheres_are_both_found() {
 /// fit's, and the meshes confirm the E it reports.
 #[test]
 fn the_naive_method_is_measured_the_same_way() {
-    let torus = common::torus(2.0, 0.7, 64, 32);
+    let torus = torus(2.0, 0.7, 64, 32);
     let mut options = MeshFitOptions::default();
     options.resolution = Resolution::LongestAxis(48);
     options.method = Method::Naive;
@@ -211,8 +210,7 @@ fn the_naive_method_is_measured_the_same_way() {
 /// and in the single precision of the fit's volume passes.
 #[test]
 fn the_grid_evaluation_finds_every_sign_of_each_triceratops_model() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj");
-    let (mesh, _) = implicitize::mesh::read(&path).unwrap();
+    let (mesh, _) = implicitize::mesh::read(triceratops()).unwrap();
     let grid = Grid::around(&mesh.bounds().unwrap(), Resolution::LongestAxis(96)).unwrap();
     let density = voxelize::voxelize(&mesh, &grid, &Default::default()).unwrap().density;
     let options = with_iterations(12);
@@ -220,14 +218,14 @@ fn the_grid_evaluation_finds_every_sign_of_each_triceratops_model() {
     let points: Vec<DVec3> = (0..grid.len()).map(|v| grid.position(grid.voxel(v))).collect();
     let mut models = 0;
     implicitize::fit::fit(&goal, &options, |line, implicit| {
-        let sampled = implicitize::rbf::evaluate_on_grid(implicit, &grid, Some(&goal.sd));
+        let sampled = implicitize::rbf::evaluate_on_grid(implicit, &grid, Some(goal.sd()));
         let full = implicit.values3(&points.iter().map(|p| p.to_array()).collect::<Vec<_>>());
         let wrong = (0..grid.len()).filter(|&v| (sampled.data[v] > 0.0) != (full[v] > 0.0)).count();
         assert_eq!(wrong, 0, "iteration {}: {wrong} voxels of the wrong sign", line.iteration);
         // The same in the single precision the fit's volume passes use, which stays within a
         // hundredth of a voxel of the exact values.
         let single = SinglePrecision(implicit);
-        let sampled = implicitize::rbf::evaluate_on_grid(&single, &grid, Some(&goal.sd));
+        let sampled = implicitize::rbf::evaluate_on_grid(&single, &grid, Some(goal.sd()));
         let full_single = single.values(&points);
         let wrong =
             (0..grid.len()).filter(|&v| (sampled.data[v] > 0.0) != (full_single[v] > 0.0)).count();
@@ -251,7 +249,7 @@ fn the_grid_evaluation_finds_every_sign_of_each_triceratops_model() {
 #[test]
 fn a_large_grid_starts_at_half_the_resolution() {
     use implicitize::fit::GridLevel;
-    let torus = common::torus(2.0, 0.7, 128, 64);
+    let torus = torus(2.0, 0.7, 128, 64);
     let options = FitOptions::default();
     let fitted = fit_mesh(&torus, 128, &options);
     let report = &fitted.report;

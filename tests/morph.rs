@@ -1,9 +1,5 @@
 //! Morphing (paper 1 and 7) between fitted models of different genus: a sphere and a torus.
 
-mod common;
-#[path = "common/topology.rs"]
-mod topology;
-
 use std::sync::OnceLock;
 
 use implicitize::csg::{Child, Composite, Operation};
@@ -11,6 +7,8 @@ use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions, Similarity};
 use implicitize::rbf::{Constraint, Implicit, Kernel};
 use implicitize::{Aabb, DVec3, Field, Grid, Mesh, MeshFitOptions, Resolution, polygonize};
+use implicitize_test_support::meshes::{sphere, torus};
+use implicitize_test_support::topology;
 
 /// Fits `mesh` at a small resolution.
 fn fitted(mesh: &Mesh) -> Model {
@@ -25,8 +23,8 @@ fn fitted(mesh: &Mesh) -> Model {
 fn sphere_and_torus() -> &'static (Model, Model) {
     static MODELS: OnceLock<(Model, Model)> = OnceLock::new();
     MODELS.get_or_init(|| {
-        let sphere = fitted(&common::sphere(DVec3::ZERO, 1.5, 32, 64));
-        let torus = fitted(&common::torus(2.0, 0.7, 96, 48));
+        let sphere = fitted(&sphere(DVec3::ZERO, 1.5, 32, 64));
+        let torus = fitted(&torus(2.0, 0.7, 96, 48));
         (sphere, torus)
     })
 }

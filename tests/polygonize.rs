@@ -2,14 +2,11 @@
 //! shapes, watertight on random volumes, open only where the grid cuts the surface.
 
 use std::collections::HashMap;
-use std::path::Path;
 
 use implicitize::polygonize::polygonize_field_dense;
-use implicitize::rbf::read_constraints;
-use implicitize::{
-    Aabb, DVec3, Field, Grid, Implicit, Kernel, Mesh, Resolution, Volume, polygonize,
-    polygonize_field,
-};
+use implicitize::{DVec3, Field, Grid, Mesh, Resolution, Volume, polygonize, polygonize_field};
+use implicitize_test_support::data::bunny;
+use implicitize_test_support::topology::{components, euler_characteristic};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -185,31 +182,6 @@ fn signed_volume(mesh: &Mesh) -> f64 {
             a.dot(b.cross(c)) / 6.0
         })
         .sum()
-}
-
-/// V - E + F.
-fn euler_characteristic(mesh: &Mesh) -> i64 {
-    let edges = directed_edges(mesh).len() / 2;
-    mesh.vertices.len() as i64 - edges as i64 + mesh.triangles.len() as i64
-}
-
-/// The number of connected components of the triangles.
-fn components(mesh: &Mesh) -> usize {
-    let mut parent: Vec<usize> = (0..mesh.vertices.len()).collect();
-    fn root(parent: &mut [usize], mut v: usize) -> usize {
-        while parent[v] != v {
-            parent[v] = parent[parent[v]];
-            v = parent[v];
-        }
-        v
-    }
-    for t in &mesh.triangles {
-        for w in [t[1], t[2]] {
-            let (a, b) = (root(&mut parent, t[0] as usize), root(&mut parent, w as usize));
-            parent[a] = b;
-        }
-    }
-    (0..parent.len()).filter(|&v| root(&mut parent, v) == v).count()
 }
 
 /// The largest distance from a vertex to the true surface, in voxels.
@@ -463,16 +435,6 @@ fn the_mesh_does_not_depend_on_the_number_of_threads() {
 }
 
 // ---- surface following ----
-
-/// The 700 constraints of the bunny (tests/data), solved with the thin-plate kernel.
-fn bunny() -> (Implicit, Aabb) {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
-    let (dim, constraints) = read_constraints(&data.join("bunny_constraints.csv")).unwrap();
-    let implicit = Implicit::solve(dim, Kernel::ThinPlate, &constraints).unwrap();
-    let positions: Vec<DVec3> =
-        constraints.iter().map(|c| DVec3::from_slice(c.position())).collect();
-    (implicit, Aabb::of_points(&positions).unwrap())
-}
 
 #[test]
 fn surface_following_gives_the_dense_mesh_of_a_fitted_bunny() {

@@ -3,16 +3,14 @@
 //! (The GLSL's compilation by glslangValidator and its values on a GPU are tested through the
 //! command: crates/implicitize-cli/tests/cli_view.rs and python/tests/test_viewer.py.)
 
-#[path = "common/balls.rs"]
-mod balls;
-
-use balls::{ball, disc_2d, sphere_directions};
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::rbf::{Constraint, Implicit, Kernel};
 use implicitize::shader::{Language, TEXTURE_WIDTH, source, texture_source};
 use implicitize::shape::Shape;
 use implicitize::{Aabb, DVec3};
+use implicitize_test_support::models::{ball, disc_2d, sphere_directions};
+use implicitize_test_support::wgsl;
 
 /// A unit ball at `center` solved with `kernel`.
 fn ball_with(kernel: Kernel, center: DVec3) -> Model {
@@ -54,16 +52,9 @@ fn composite() -> Model {
     Model::from_composite(outer).unwrap()
 }
 
-/// Parses and validates WGSL with naga, reporting its diagnostics on failure.
-fn validate_wgsl(wgsl: &str) {
-    let module = naga::front::wgsl::parse_str(wgsl)
-        .unwrap_or_else(|e| panic!("{}\n{wgsl}", e.emit_to_string(wgsl)));
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{}\n{wgsl}", e.emit_to_string(wgsl)));
+/// Validates WGSL with naga and checks that it defines the value and gradient functions.
+fn check_wgsl(source: &str) {
+    let module = wgsl::validate(source);
     let names: Vec<&str> = module.functions.iter().filter_map(|(_, f)| f.name.as_deref()).collect();
     assert!(names.contains(&"implicitize_value") && names.contains(&"implicitize_gradient"));
 }
@@ -73,7 +64,7 @@ fn wgsl_of_every_kernel_validates() {
     for kernel in [Kernel::ThinPlate, Kernel::Cubic, Kernel::Linear] {
         let wgsl = source(&ball_with(kernel, DVec3::ZERO), "ball.json", Language::Wgsl).unwrap();
         assert!(wgsl.contains(&format!("implicitize_phi_{}", kernel.name())));
-        validate_wgsl(&wgsl);
+        check_wgsl(&wgsl);
     }
 }
 
@@ -81,7 +72,7 @@ fn wgsl_of_every_kernel_validates() {
 fn wgsl_of_a_nested_blended_composite_validates() {
     let wgsl = source(&composite(), "csg.json", Language::Wgsl).unwrap();
     assert!(wgsl.contains("implicitize_combine"));
-    validate_wgsl(&wgsl);
+    check_wgsl(&wgsl);
 }
 
 #[test]

@@ -2,11 +2,12 @@
 //! overlapping or hollow, unit independence, and bad input.
 
 use std::collections::HashMap;
-use std::path::Path;
 
 use implicitize::distance::inside;
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
 use implicitize::{DVec3, Grid, Mesh, Resolution, Volume};
+use implicitize_test_support::data::triceratops;
+use implicitize_test_support::meshes::{merge, torus};
 
 /// A sphere: an icosahedron subdivided `levels` times, outward facing.
 fn sphere(centre: DVec3, radius: f64, levels: usize) -> Mesh {
@@ -68,38 +69,6 @@ fn sphere(centre: DVec3, radius: f64, levels: usize) -> Mesh {
             .collect();
     }
     Mesh { vertices: vertices.iter().map(|&v| centre + radius * v).collect(), triangles }
-}
-
-/// A torus around the z axis, outward facing.
-fn torus(major: f64, minor: f64, n: u32, m: u32) -> Mesh {
-    let mut vertices = Vec::new();
-    for i in 0..n {
-        for j in 0..m {
-            let (u, v) = (
-                i as f64 / n as f64 * std::f64::consts::TAU,
-                j as f64 / m as f64 * std::f64::consts::TAU,
-            );
-            let r = major + minor * v.cos();
-            vertices.push(DVec3::new(r * u.cos(), r * u.sin(), minor * v.sin()));
-        }
-    }
-    let at = |i: u32, j: u32| (i % n) * m + j % m;
-    let mut triangles = Vec::new();
-    for i in 0..n {
-        for j in 0..m {
-            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-        }
-    }
-    Mesh { vertices, triangles }
-}
-
-fn merged(a: &Mesh, b: &Mesh) -> Mesh {
-    let offset = a.vertices.len() as u32;
-    let mut m = a.clone();
-    m.vertices.extend(&b.vertices);
-    m.triangles.extend(b.triangles.iter().map(|t| t.map(|i| i + offset)));
-    m
 }
 
 fn inverted(m: &Mesh) -> Mesh {
@@ -242,11 +211,11 @@ fn open_flipped_and_inverted_meshes_give_the_intact_solid() {
 #[test]
 fn overlapping_parts_unite_and_inner_shells_stay_hollow() {
     let (a, b) = (DVec3::new(-0.5, 0.0, 0.0), DVec3::new(0.5, 0.0, 0.0));
-    let union = merged(&sphere(a, 1.0, 3), &sphere(b, 1.0, 3));
+    let union = merge(&sphere(a, 1.0, 3), &sphere(b, 1.0, 3));
     let grid = grid_for(&union, 40);
     let d = |p: DVec3| sphere_distance(a, 1.0)(p).max(sphere_distance(b, 1.0)(p));
     check_against(&solid(&union, &grid), d);
-    let hollow = merged(&sphere(DVec3::ZERO, 2.0, 3), &inverted(&sphere(DVec3::ZERO, 1.0, 3)));
+    let hollow = merge(&sphere(DVec3::ZERO, 2.0, 3), &inverted(&sphere(DVec3::ZERO, 1.0, 3)));
     let grid = grid_for(&hollow, 40);
     let d =
         |p: DVec3| sphere_distance(DVec3::ZERO, 2.0)(p).min(-sphere_distance(DVec3::ZERO, 1.0)(p));
@@ -285,8 +254,7 @@ fn supersampling_one_gives_binary_densities_and_the_same_centres() {
 
 #[test]
 fn the_triceratops_with_holes_and_flipped_faces_keeps_its_solid() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj");
-    let (mesh, _) = implicitize::mesh::read(&path).unwrap();
+    let (mesh, _) = implicitize::mesh::read(triceratops()).unwrap();
     let grid = grid_for(&mesh, 96);
     let intact = solid(&mesh, &grid);
     let sd = implicitize::distance::signed_distance(&intact);

@@ -3,6 +3,7 @@ outputs the package must reproduce) and a reader of its PNG pictures."""
 
 from __future__ import annotations
 
+import json
 import os
 import struct
 import subprocess
@@ -16,10 +17,27 @@ ROOT = Path(__file__).resolve().parents[2]
 TRICERATOPS = ROOT / "data" / "triceratops.obj"
 
 
+def cargo_target_dir() -> Path:
+    """The workspace's target directory as cargo reports it (CARGO_TARGET_DIR honoured)."""
+    done = subprocess.run(
+        ["cargo", "metadata", "--format-version", "1", "--no-deps"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    if done.returncode != 0:
+        pytest.fail(f"cargo metadata failed, so no target directory: {done.stderr}")
+    return Path(json.loads(done.stdout)["target_directory"])
+
+
 @pytest.fixture(scope="session")
 def cli() -> Path:
-    """The `implicitize` binary (IMPLICITIZE_BIN, or the workspace's release build)."""
-    path = Path(os.environ.get("IMPLICITIZE_BIN", ROOT / "target" / "release" / "implicitize"))
+    """The `implicitize` binary: IMPLICITIZE_BIN, or the release build in cargo's target
+    directory."""
+    if "IMPLICITIZE_BIN" in os.environ:
+        path = Path(os.environ["IMPLICITIZE_BIN"])
+    else:
+        path = cargo_target_dir() / "release" / "implicitize"
     if not path.is_file():
         pytest.fail(f"{path}: no implicitize binary; run `cargo build --release` first")
     return path

@@ -10,21 +10,25 @@ use crate::grid::{Grid, Volume};
 use crate::metrics::{self, AGREEMENT, RegularityOptions, SubVoxel};
 
 /// Everything the fit needs to know about the goal shape, computed once.
+///
+/// Its parts are derived from one another (the signed distance from the densities, the
+/// boundary voxels from the signed distance, ...), so they are read through methods and only
+/// [`Goal::from_density`] makes them.
 #[derive(Debug, Clone)]
 pub struct Goal {
     /// Densities in [0, 1], 1 inside; boundary constraints sit where they cross 1/2.
-    pub density: Volume<f32>,
+    pub(super) density: Volume<f32>,
     /// The goal's signed distance sd_goal, voxel units, inside positive.
-    pub sd: Volume<f32>,
+    pub(super) sd: Volume<f32>,
     /// The goal's boundary voxels ∂f_goal.
-    pub boundary: Vec<[usize; 3]>,
+    pub(super) boundary: Vec<[usize; 3]>,
     /// The goal's radius of regularity at each boundary voxel, in voxels.
-    pub rreg: Vec<f32>,
+    pub(super) rreg: Vec<f32>,
     /// The point where the densities cross 1/2 at each boundary voxel, in continuous voxel
     /// coordinates: where boundary constraints go (5.3, "at sub-voxel precision").
-    pub surface: Vec<DVec3>,
+    pub(super) surface: Vec<DVec3>,
     /// The surface points as disks, for [`Goal::fine_signed_distance`].
-    pub disks: SurfaceDisks,
+    pub(super) disks: SurfaceDisks,
 }
 
 impl Goal {
@@ -44,16 +48,45 @@ impl Goal {
         &self.density.grid
     }
 
+    /// The densities in [0, 1], 1 inside (paper 4.1); boundary constraints sit where they
+    /// cross 1/2.
+    pub fn density(&self) -> &Volume<f32> {
+        &self.density
+    }
+
+    /// The goal's signed distance sd_goal (paper 4.2), in voxels, inside positive.
+    pub fn sd(&self) -> &Volume<f32> {
+        &self.sd
+    }
+
+    /// The goal's boundary voxels ∂f_goal: inside voxels with a 6-neighbour outside, sorted by
+    /// index.
+    pub fn boundary(&self) -> &[[usize; 3]] {
+        &self.boundary
+    }
+
+    /// The radius of regularity at each of [`Goal::boundary`]'s voxels (paper 4.3), in voxels.
+    pub fn rreg(&self) -> &[f32] {
+        &self.rreg
+    }
+
+    /// The point where the densities cross 1/2 at each of [`Goal::boundary`]'s voxels, in
+    /// continuous voxel coordinates: where boundary constraints go (paper 5.3, "at sub-voxel
+    /// precision").
+    pub fn surface(&self) -> &[DVec3] {
+        &self.surface
+    }
+
     /// The goal's signed distance to sub-voxel precision, from the densities near the surface.
     pub fn sub_voxel(&self) -> SubVoxel<'_> {
         SubVoxel { values: &self.density, level: 0.5, sd: &self.sd, reach: 1.5 }
     }
 
     /// The goal's signed distance at `p` (continuous voxel coordinates, inside positive, in
-    /// voxels): to the nearest of its surface disks within [`surface::REACH`] voxels of its
-    /// voxel surface ([`super::surface`]), the voxel-centre distance elsewhere and wherever the
-    /// two differ by more than [`AGREEMENT`]. Within a voxel of the surface the side is the
-    /// disk's, further out the voxel-centre distance's.
+    /// voxels): to the nearest of its surface disks (a disk in the tangent plane at each of
+    /// [`Goal::surface`]'s points) within 2.5 voxels of its voxel surface, the voxel-centre
+    /// distance elsewhere and wherever the two differ by more than [`AGREEMENT`]. Within a
+    /// voxel of the surface the side is the disk's, further out the voxel-centre distance's.
     pub fn fine_signed_distance(&self, p: DVec3) -> f32 {
         let coarse = distance::sample(&self.sd, p);
         if coarse.abs() > surface::REACH {

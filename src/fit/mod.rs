@@ -19,12 +19,12 @@
 //! same constraints in voxels. The best model by E, then RMS, is kept, not the last.
 
 mod coarse;
-pub mod goal;
+mod goal;
 mod init;
 pub mod naive;
 mod refine;
-pub mod report;
-pub mod surface;
+mod report;
+mod surface;
 
 use std::time::Instant;
 

@@ -1,4 +1,4 @@
-//! Writes a generated hostile mesh (see `tests/support/hostile.rs`) for the benchmarks:
+//! Writes a generated hostile mesh (see `implicitize_test_support::hostile`) for the benchmarks:
 //! `cargo run --release -p implicitize-cli --example hostile_mesh -- hollow OUT.ply 2600000`
 //! writes a bumpy sphere with an inward-facing sphere inside (a hollow solid) of about that
 //! many triangles; `sphere` writes the bumpy sphere alone.
@@ -6,11 +6,8 @@
 use std::path::Path;
 
 use implicitize::{DVec3, mesh};
-
-// Each includer uses a part of the helpers; this example only the spheres.
-#[allow(dead_code)]
-#[path = "../tests/support/hostile.rs"]
-mod hostile;
+use implicitize_test_support::hostile;
+use implicitize_test_support::meshes::merge;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -27,7 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "sphere" => outer,
         "hollow" => {
             let inner = hostile::bumpy_sphere(DVec3::ZERO, 0.6, 0.0, rings, segments, true);
-            hostile::merge(&outer, &inner)
+            merge(&outer, &inner)
         }
         other => return Err(format!("unknown kind {other:?}: sphere or hollow").into()),
     };

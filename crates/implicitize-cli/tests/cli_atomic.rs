@@ -3,18 +3,15 @@
 //! previous complete output before the new one is complete. Output folders are checked before
 //! the work starts.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use implicitize::Model;
+use implicitize_test_support::data::triceratops;
 
 /// Kills per command.
 const KILLS: usize = 50;
-
-fn triceratops() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/triceratops.obj")
-}
 
 fn command(args: &[&str]) -> Command {
     let mut command = Command::new(env!("CARGO_BIN_EXE_implicitize"));

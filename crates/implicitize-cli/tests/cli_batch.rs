@@ -5,9 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn triceratops() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/triceratops.obj")
-}
+use implicitize_test_support::data::triceratops;
 
 fn run(args: &[&Path]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_implicitize")).args(args).output().unwrap()

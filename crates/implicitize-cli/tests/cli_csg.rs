@@ -1,18 +1,14 @@
 //! `implicitize csg`: composites written by the command, read back by eval and mesh, and its
 //! errors.
 
-#[path = "../../../tests/common/balls.rs"]
-mod balls;
-#[path = "../../../tests/common/topology.rs"]
-mod topology;
-
 use std::path::Path;
 use std::process::Command;
 
-use balls::{ball, disc_2d};
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::{DVec3, Field};
+use implicitize_test_support::models::{ball, disc_2d};
+use implicitize_test_support::topology;
 
 fn two_balls() -> (Model, Model) {
     (ball(DVec3::ZERO, 1.0, 1.0), ball(DVec3::new(1.1, 0.3, -0.2), 0.7, 3.0))

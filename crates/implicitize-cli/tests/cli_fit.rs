@@ -3,12 +3,10 @@
 use std::path::Path;
 use std::process::Command;
 
+use implicitize_test_support::data::triceratops;
+
 fn implicitize() -> Command {
     Command::new(env!("CARGO_BIN_EXE_implicitize"))
-}
-
-fn triceratops() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/triceratops.obj"))
 }
 
 #[test]

@@ -4,7 +4,6 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use implicitize::figure2;
 use implicitize::goal2d::{self, ImageOptions, Luminance};
 use implicitize::{DVec3, Field, Model};
 
@@ -170,7 +169,6 @@ fn letters_are_fitted_within_two_pixels_and_figure_2_is_drawn() {
             .read_info()
             .unwrap();
     let (width, height) = (reader.info().width as usize, reader.info().height as usize);
-    assert_eq!((width, height), figure2::size(model.grid().unwrap(), 2));
     assert_eq!((width, height), (3 * 360 + 4 * 6, 2 * 180 + 3 * 6));
     let mut rgba = vec![0; reader.output_buffer_size().unwrap()];
     reader.next_frame(&mut rgba).unwrap();

@@ -3,12 +3,9 @@
 //! the estimate, the limit and the largest resolution that fits; readers refuse headers that
 //! claim more than their file holds.
 
-use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-fn triceratops() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/triceratops.obj")
-}
+use implicitize_test_support::data::triceratops;
 
 fn bin() -> &'static str {
     env!("CARGO_BIN_EXE_implicitize")

@@ -1,15 +1,12 @@
 //! `implicitize morph`: frames and a strip from two fitted models, and its errors.
 
-#[path = "../../../tests/common/mod.rs"]
-mod common;
-#[path = "../../../tests/common/topology.rs"]
-mod topology;
-
 use std::process::Command;
 
 use implicitize::fit::FitOptions;
 use implicitize::model::Model;
 use implicitize::{DVec3, MeshFitOptions, Resolution};
+use implicitize_test_support::meshes::{sphere, torus};
+use implicitize_test_support::topology;
 
 /// Fits `mesh` at a small resolution.
 fn fitted(mesh: &implicitize::Mesh) -> Model {
@@ -21,8 +18,8 @@ fn fitted(mesh: &implicitize::Mesh) -> Model {
 
 /// A sphere of radius 1.5 and a torus of radii 2 and 0.7 around z, both at the origin.
 fn sphere_and_torus() -> (Model, Model) {
-    let sphere = fitted(&common::sphere(DVec3::ZERO, 1.5, 32, 64));
-    let torus = fitted(&common::torus(2.0, 0.7, 96, 48));
+    let sphere = fitted(&sphere(DVec3::ZERO, 1.5, 32, 64));
+    let torus = fitted(&torus(2.0, 0.7, 96, 48));
     (sphere, torus)
 }
 fn implicitize() -> Command {

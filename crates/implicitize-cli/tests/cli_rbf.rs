@@ -1,14 +1,12 @@
 //! `implicitize solve` and `implicitize eval` through the command line.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
+
+use implicitize_test_support::data::test_data;
 
 fn implicitize(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_implicitize")).args(args).output().unwrap()
-}
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data").join(name)
 }
 
 fn s(path: &Path) -> &str {
@@ -30,7 +28,7 @@ fn stderr(output: &Output) -> String {
 fn solve_then_eval_matches_scipy_on_the_bunny() {
     let dir = tempfile::tempdir().unwrap();
     let model = dir.path().join("bunny.json");
-    let out = implicitize(&["solve", s(&data("bunny_constraints.csv")), "-o", s(&model)]);
+    let out = implicitize(&["solve", s(&test_data("bunny_constraints.csv")), "-o", s(&model)]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stderr(&out).contains("solved 700 constraints"), "{}", stderr(&out));
     let values = dir.path().join("values.npy");
@@ -38,7 +36,7 @@ fn solve_then_eval_matches_scipy_on_the_bunny() {
         "eval",
         s(&model),
         "--points",
-        s(&data("bunny_points.npy")),
+        s(&test_data("bunny_points.npy")),
         "-o",
         s(&values),
         "-q",
@@ -46,12 +44,12 @@ fn solve_then_eval_matches_scipy_on_the_bunny() {
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(out.stderr.is_empty(), "--quiet prints nothing");
     let ours = read_vector(&values);
-    let scipy = read_vector(&data("bunny_scipy_values.npy"));
+    let scipy = read_vector(&test_data("bunny_scipy_values.npy"));
     let reference = scipy.iter().map(|v| v.abs()).fold(0.0, f64::max);
     let worst = ours.iter().zip(&scipy).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(worst <= 1e-6 * reference, "{worst:e}");
     // float32 points and CSV points give the values at those points.
-    let (points, _) = implicitize::npy::read_rows(&data("bunny_points.npy")).unwrap();
+    let (points, _) = implicitize::npy::read_rows(&test_data("bunny_points.npy")).unwrap();
     let f32_points = dir.path().join("points32.npy");
     let rounded: Vec<f32> = points.iter().map(|&v| v as f32).collect();
     implicitize::npy::write(&f32_points, &[2000, 3], &rounded).unwrap();
@@ -81,7 +79,7 @@ fn kernels_are_chosen_by_name() {
     for kernel in ["r2logr", "r3", "r"] {
         let out = implicitize(&[
             "solve",
-            s(&data("bunny_constraints.csv")),
+            s(&test_data("bunny_constraints.csv")),
             "-o",
             s(&model),
             "--kernel",
@@ -94,7 +92,7 @@ fn kernels_are_chosen_by_name() {
     }
     let out = implicitize(&[
         "solve",
-        s(&data("bunny_constraints.csv")),
+        s(&test_data("bunny_constraints.csv")),
         "-o",
         s(&model),
         "--kernel",
@@ -139,7 +137,7 @@ fn bad_input_gives_one_clear_line_naming_the_file() {
             "eval",
             s(&model),
             "--points",
-            s(&data("bunny_points.npy")),
+            s(&test_data("bunny_points.npy")),
             "-o",
             s(&values),
         ]),
@@ -151,7 +149,7 @@ fn bad_input_gives_one_clear_line_naming_the_file() {
             "eval",
             s(&model),
             "--points",
-            s(&data("bunny_points.npy")),
+            s(&test_data("bunny_points.npy")),
             "-o",
             s(&values),
         ]),

@@ -5,12 +5,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 
+use implicitize_test_support::data::triceratops;
+
 fn implicitize() -> Command {
     Command::new(env!("CARGO_BIN_EXE_implicitize"))
-}
-
-fn triceratops() -> &'static Path {
-    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/triceratops.obj"))
 }
 
 fn run(command: &mut Command) -> Output {

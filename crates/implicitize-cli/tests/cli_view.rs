@@ -3,16 +3,14 @@
 //! glslang-tools, installed by scripts/test.sh) and the WGSL validates with naga; bad input
 //! gives one line naming the file. (The page in a browser: python/tests/test_viewer.py.)
 
-#[path = "../../../tests/common/balls.rs"]
-mod balls;
-
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use balls::{ball, disc_2d};
 use implicitize::DVec3;
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
+use implicitize_test_support::models::{ball, disc_2d};
+use implicitize_test_support::wgsl;
 
 fn implicitize() -> Command {
     Command::new(env!("CARGO_BIN_EXE_implicitize"))
@@ -138,18 +136,6 @@ fn compile_glsl(source: &str, dir: &Path) {
     }
 }
 
-/// Parses and validates WGSL with naga.
-fn validate_wgsl(source: &str) {
-    let module = naga::front::wgsl::parse_str(source)
-        .unwrap_or_else(|e| panic!("{}", e.emit_to_string(source)));
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::all(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(source)));
-}
-
 #[test]
 fn exported_glsl_compiles_and_wgsl_validates() {
     let inputs = Inputs::new();
@@ -170,7 +156,9 @@ fn exported_glsl_compiles_and_wgsl_validates() {
             );
             match format {
                 "glsl" => compile_glsl(&source, inputs.dir.path()),
-                _ => validate_wgsl(&source),
+                _ => {
+                    wgsl::validate(&source);
+                }
             }
         }
     }

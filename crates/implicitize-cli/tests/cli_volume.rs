@@ -1,11 +1,9 @@
 //! `implicitize voxelize` and `implicitize sdf` through the binary, on the built-in triceratops.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-fn triceratops() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/triceratops.obj")
-}
+use implicitize_test_support::data::triceratops;
 
 fn run(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_implicitize")).args(args).output().unwrap()

@@ -5,7 +5,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
-use implicitize::figure2::{self, Snapshots};
 use implicitize::fit::{self, Goal};
 use implicitize::goal2d::{self, ImageOptions};
 use implicitize::memory::Estimate;
@@ -14,6 +13,7 @@ use implicitize::rbf::Implicit;
 
 use super::common::{Progress, check_outputs, memory_limit, write_report};
 use super::fit::LoopArgs;
+use crate::figure2::{self, Snapshots};
 
 /// Arguments of `implicitize fit2d`.
 #[derive(Debug, Args)]

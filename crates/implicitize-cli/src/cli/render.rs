@@ -11,7 +11,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use implicitize::figure3::figure3;
 use implicitize::fit::Goal;
 use implicitize::memory::Estimate;
 use implicitize::metrics::RegularityOptions;
@@ -23,6 +22,7 @@ use implicitize::render::{
 use implicitize::{Aabb, Field, Grid, Mesh};
 
 use super::common::{GridArgs, Progress, check_outputs, memory_limit, read_mesh};
+use crate::figure3::figure3;
 
 /// The default view: a three-quarter view from the front right and a little above.
 const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];

@@ -20,14 +20,10 @@
 //! distances and the goal's densities are interpolated bilinearly. Panels are separated and
 //! framed by a grey band [`GAP`] pixels wide and labelled (a) to (f) in their top-left corner.
 
-use crate::distance;
-use crate::error::{Error, Result};
-use crate::field::Field;
-use crate::fit::Goal;
-use crate::geometry::DVec3;
-use crate::grid::{Grid, Volume};
-use crate::rbf::{self, Implicit};
-use crate::render::Image;
+use implicitize::fit::Goal;
+use implicitize::rbf::{self, Implicit};
+use implicitize::render::Image;
+use implicitize::{DVec3, Error, Field, Grid, Result, Volume, distance};
 
 /// The width of the grey bands between and around panels, in picture pixels.
 pub const GAP: usize = 6;
@@ -93,9 +89,9 @@ pub fn draw(goal: &Goal, snapshots: &Snapshots, scale: usize) -> Result<Image> {
     let inside = |values: &[f64]| values.iter().map(|&v| v > 0.0).collect::<Vec<bool>>();
     let early = inside(&panel.values(snapshots.early));
     let goal_inside: Vec<bool> =
-        panel.grid_points().iter().map(|&g| distance::sample(&goal.density, g) > 0.5).collect();
+        panel.grid_points().iter().map(|&g| distance::sample(goal.density(), g) > 0.5).collect();
     let early_sd = current_signed_distance(snapshots.early, goal);
-    let range = Range::of(&goal.sd).union(Range::of(&early_sd));
+    let range = Range::of(goal.sd()).union(Range::of(&early_sd));
 
     let mut a = panel.contour(&goal_inside);
     for (p, value) in added_constraints(snapshots.early, snapshots.next) {
@@ -103,7 +99,7 @@ pub fn draw(goal: &Goal, snapshots: &Snapshots, scale: usize) -> Result<Image> {
     }
     let b = panel.contour(&early);
     let c = panel.contour(&inside(&panel.values(snapshots.next)));
-    let mut d = panel.signed_distance(&goal.sd, range);
+    let mut d = panel.signed_distance(goal.sd(), range);
     panel.outline(&mut d, &early);
     let mut e = panel.signed_distance(&early_sd, range);
     panel.outline(&mut e, &goal_inside);
@@ -122,7 +118,7 @@ pub fn draw(goal: &Goal, snapshots: &Snapshots, scale: usize) -> Result<Image> {
 
 /// sd_curr of `implicit` on the goal's grid, as the fit measures it.
 fn current_signed_distance(implicit: &Implicit, goal: &Goal) -> Volume<f32> {
-    let values = rbf::evaluate_on_grid(implicit, goal.grid(), Some(&goal.sd));
+    let values = rbf::evaluate_on_grid(implicit, goal.grid(), Some(goal.sd()));
     let inside = Volume { grid: values.grid, data: values.data.iter().map(|&v| v > 0.0).collect() };
     distance::signed_distance(&inside)
 }

@@ -1,5 +1,4 @@
-//! Models solved from analytic constraints, shared by the library's and the command's tests.
-#![allow(dead_code)]
+//! Models solved from analytic constraints: balls and a disc.
 
 use implicitize::model::Model;
 use implicitize::rbf::{Constraint, Implicit, Kernel};

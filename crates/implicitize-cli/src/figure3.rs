@@ -9,13 +9,10 @@
 
 use std::collections::HashMap;
 
-use crate::error::Result;
-use crate::fit::Goal;
-use crate::geometry::DVec3;
-use crate::mesh::Mesh;
-use crate::metrics::RegularityOptions;
-use crate::polygonize::polygonize;
-use crate::render::{Camera, Image, render_mesh_scalars};
+use implicitize::fit::Goal;
+use implicitize::metrics::RegularityOptions;
+use implicitize::render::{Camera, Image, render_mesh_scalars};
+use implicitize::{DVec3, Mesh, Result, polygonize};
 
 /// How far, in voxels along each axis, the nearest boundary voxel is looked for. A goal
 /// surface vertex lies on the segment between an inside voxel with signed distance 1/2 (a
@@ -26,11 +23,11 @@ const RREG_REACH: i64 = 2;
 /// The goal surface of `goal` (mesh units) and the radius of regularity at each of its
 /// vertices, in voxels: that of the nearest goal boundary voxel, or NaN where there is none
 /// within two voxels (drawn grey).
-pub fn goal_surface_rreg(goal: &Goal) -> (Mesh, Vec<f32>) {
+fn goal_surface_rreg(goal: &Goal) -> (Mesh, Vec<f32>) {
     let grid = goal.grid();
-    let surface = polygonize(&goal.density, 0.5);
+    let surface = polygonize(goal.density(), 0.5);
     let rreg_at: HashMap<[usize; 3], f32> =
-        goal.boundary.iter().copied().zip(goal.rreg.iter().copied()).collect();
+        goal.boundary().iter().copied().zip(goal.rreg().iter().copied()).collect();
     let rreg = surface
         .vertices
         .iter()

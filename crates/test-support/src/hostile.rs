@@ -1,9 +1,11 @@
 //! Hostile meshes, generated rather than committed: a finely subdivided displaced sphere,
 //! nested shells, duplicated and zero-area faces, non-manifold edges, self-intersecting parts,
-//! an open sheet and a car-body-like open shell. Used by `tests/cli_hostile.rs` and by the
-//! example `hostile_mesh` (for `scripts/bench-hostile.sh`).
+//! an open sheet and a car-body-like open shell. Used by the command's `tests/cli_hostile.rs`
+//! and by its example `hostile_mesh` (for `scripts/bench-hostile.sh`).
 
 use implicitize::{DVec3, Mesh};
+
+use crate::meshes::merge;
 
 /// A sphere of `radius` around `centre` on a latitude-longitude grid of `rings` bands and
 /// `segments` sectors (`2 * segments * (rings - 1)` triangles), its radius displaced by
@@ -42,15 +44,6 @@ pub fn bumpy_sphere(
         triangles.iter_mut().for_each(|t| t.swap(1, 2));
     }
     Mesh { vertices, triangles }
-}
-
-/// The two meshes as one (vertices not shared).
-pub fn merge(a: &Mesh, b: &Mesh) -> Mesh {
-    let offset = a.vertices.len() as u32;
-    let mut mesh = a.clone();
-    mesh.vertices.extend_from_slice(&b.vertices);
-    mesh.triangles.extend(b.triangles.iter().map(|t| t.map(|i| i + offset)));
-    mesh
 }
 
 /// The six faces of an axis-aligned box, outward, as `(corner indices)` into its 8 corners

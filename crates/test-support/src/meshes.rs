@@ -1,5 +1,4 @@
-//! Shapes and measurements shared by the integration tests.
-#![allow(dead_code)]
+//! Meshes built from formulas, and distances between meshes.
 
 use implicitize::{DVec3, Mesh};
 
@@ -50,6 +49,15 @@ pub fn sphere(center: DVec3, radius: f64, rings: u32, segments: u32) -> Mesh {
         }
     }
     Mesh { vertices, triangles }
+}
+
+/// The two meshes as one (vertices not shared).
+pub fn merge(a: &Mesh, b: &Mesh) -> Mesh {
+    let offset = a.vertices.len() as u32;
+    let mut mesh = a.clone();
+    mesh.vertices.extend_from_slice(&b.vertices);
+    mesh.triangles.extend(b.triangles.iter().map(|t| t.map(|i| i + offset)));
+    mesh
 }
 
 /// The distance from `p` to the triangle `abc` (Ericson, Real-Time Collision Detection 5.1.5).

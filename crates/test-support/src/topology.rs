@@ -1,5 +1,4 @@
-//! Topology of triangle meshes for the CSG and morph tests: closedness, components, genus.
-#![allow(dead_code)]
+//! Topology of triangle meshes: closedness, components, genus.
 
 use std::collections::HashMap;
 

@@ -1,0 +1,32 @@
+//! The repository's data: the built-in triceratops and the files of `tests/data`.
+
+use std::path::{Path, PathBuf};
+
+use implicitize::rbf::read_constraints;
+use implicitize::{Aabb, DVec3, Implicit, Kernel};
+
+/// The repository's root directory.
+pub fn root() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+}
+
+/// The built-in triceratops, `data/triceratops.obj` (closed, 5,660 triangles).
+pub fn triceratops() -> &'static Path {
+    Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../data/triceratops.obj"))
+}
+
+/// A file of `tests/data` (reference values from SciPy and the bunny's constraints).
+pub fn test_data(name: &str) -> PathBuf {
+    root().join("tests/data").join(name)
+}
+
+/// The Stanford bunny's 700 constraints (`tests/data/bunny_constraints.csv`) solved with the
+/// thin-plate kernel, and the bounds of their positions.
+pub fn bunny() -> (Implicit, Aabb) {
+    let (dim, constraints) =
+        read_constraints(&test_data("bunny_constraints.csv")).expect("the bunny's constraints");
+    let implicit = Implicit::solve(dim, Kernel::ThinPlate, &constraints).expect("a solved bunny");
+    let positions: Vec<DVec3> =
+        constraints.iter().map(|c| DVec3::from_slice(c.position())).collect();
+    (implicit, Aabb::of_points(&positions).expect("constraints"))
+}
