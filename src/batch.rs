@@ -384,3 +384,35 @@ pub fn write_manifest(out: &Path, entries: &[Entry]) -> Result<()> {
         .collect();
     crate::output::write_bytes(&out.join(MANIFEST), text.as_bytes())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_keeps_its_message() {
+        let caught = std::panic::catch_unwind(|| panic!("the {} went wrong", "solve")).unwrap_err();
+        let message = panic_message(caught.as_ref());
+        assert!(message.ends_with("the solve went wrong"), "{message}");
+        let caught = std::panic::catch_unwind(|| std::panic::panic_any(7)).unwrap_err();
+        assert!(panic_message(caught.as_ref()).ends_with("no message"));
+    }
+
+    #[test]
+    fn an_origin_changes_with_the_options_and_the_contents() {
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = dir.path().join("m.obj");
+        std::fs::write(&mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let options = BatchOptions::default();
+        let first = Origin::of(&mesh, &options).unwrap();
+        assert_eq!(Origin::of(&mesh, &options).unwrap(), first);
+        let mut finer = options.clone();
+        finer.fit.resolution = crate::Resolution::LongestAxis(300);
+        assert_ne!(Origin::of(&mesh, &finer).unwrap().options, first.options);
+        let mut other_limit = options.clone();
+        other_limit.fit.memory_limit = crate::memory::MemoryLimit::Bytes(1 << 30);
+        assert_eq!(Origin::of(&mesh, &other_limit).unwrap(), first, "the limit decides nothing");
+        std::fs::write(&mesh, "v 0 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert_ne!(Origin::of(&mesh, &options).unwrap().blake3, first.blake3);
+    }
+}

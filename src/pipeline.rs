@@ -255,7 +255,7 @@ pub fn fit(
     let prepared = Prepared::new(&mesh, &name, options)?;
     observer.prepared(&prepared);
     if let Some(path) = &outputs.sdf {
-        prepared.goal().sd.save_npy(path)?;
+        prepared.goal().sd().save_npy(path)?;
     }
     let mut fitted = prepared.fit(|report, implicit| observer.iteration(report, implicit))?;
     fitted.report.mesh_bytes = bytes;

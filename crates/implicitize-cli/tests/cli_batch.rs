@@ -159,7 +159,9 @@ fn a_rerun_refits_what_another_resolution_or_a_touched_mesh_changes_and_reuses_t
 
     let (other, reused) = batch_at(&lib, &out, "36");
     assert_eq!(reused, 0, "another resolution refits every mesh");
-    assert!(other.iter().all(|e| e["origin"]["options"]["fit"]["resolution"]["longest_axis"] == 36));
+    assert!(
+        other.iter().all(|e| e["origin"]["options"]["fit"]["resolution"]["longest_axis"] == 36)
+    );
     assert_ne!(std::fs::read(out.join("a.json")).unwrap(), model_at_32, "a.json was refitted");
 
     // Touching b.obj (same contents, a newer modification time) refits b only.
