@@ -44,12 +44,16 @@ const DENSE_PER_ENTRY: u64 = 16;
 const ITERATIVE_PER_CONSTRAINT: u64 = 24 << 10;
 /// An iterative solve's coarse problem (at most 3,000 centres, factored) and its fixed tables.
 const ITERATIVE_BASE: u64 = 160 << 20;
-/// Bytes per voxel of polygonizing a field evaluated at every voxel (`--dense`): the f64
-/// values, the inside bits and the vertices of the surface.
-const DENSE_PER_VOXEL: u64 = 16;
+/// Bytes per voxel of polygonizing a field evaluated at every voxel (`dense`): the f64
+/// values, the inside bits and the vertices of the surface (measured on the triceratops from
+/// 128 to 512: 15 a voxel beyond the fixed part).
+const DENSE_PER_VOXEL: u64 = 20;
 /// Bytes per voxel of polygonizing a field by following its surface: the visited flags and
-/// the vertices and triangles along the surface (a fraction of the voxels).
-const FOLLOW_PER_VOXEL: u64 = 4;
+/// the vertices and triangles along the surface (measured: 9 a voxel from 256 to 512).
+const FOLLOW_PER_VOXEL: u64 = 12;
+/// What polygonizing holds whatever the grid: the points of a chunk of a million voxels and
+/// their values, and the evaluation's tables.
+const POLYGONIZE_BASE: u64 = 96 << 20;
 /// Bytes per pixel of a picture: the colours, depth, normals and positions of the rays.
 const PER_PIXEL: u64 = 64;
 
@@ -86,7 +90,8 @@ impl Estimate {
     /// following the surface.
     pub fn polygonize(dims: [usize; 3], dense: bool) -> Estimate {
         let per_voxel = if dense { DENSE_PER_VOXEL } else { FOLLOW_PER_VOXEL };
-        Estimate::grid(dims, per_voxel, 0)
+        let grid = Estimate::grid(dims, per_voxel, 0);
+        Estimate { bytes: grid.bytes.saturating_add(POLYGONIZE_BASE), ..grid }
     }
 
     /// A picture of `width` x `height` pixels.

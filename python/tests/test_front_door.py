@@ -178,14 +178,16 @@ def peak_and_estimate(cli, *args) -> tuple:
 
 @pytest.mark.parametrize(
     "command, resolution",
-    [("sdf", 96), ("sdf", 256), ("fit", 64), ("fit", 160), ("mesh", 256)],
+    [("sdf", 96), ("sdf", 256), ("fit", 64), ("fit", 160), ("mesh", 256), ("mesh", 512),
+     ("mesh-dense", 256), ("mesh-dense", 512)],
 )
 def test_memory_estimates_are_upper_bounds_of_the_peak(tmp_path, cli, triceratops, command, resolution):
     model = tmp_path / "model.json"
-    if command == "mesh":
+    if command.startswith("mesh"):
         subprocess.run([str(cli), "--quiet", "fit", str(triceratops), "--resolution", "48",
                         "-o", str(model)], check=True)
-        args = ["mesh", model, "--dense", "--resolution", resolution, "-o", tmp_path / "m.ply"]
+        dense = ["--dense"] if command == "mesh-dense" else []
+        args = ["mesh", model, *dense, "--resolution", resolution, "-o", tmp_path / "m.ply"]
     elif command == "sdf":
         args = ["sdf", triceratops, "--resolution", resolution, "-o", tmp_path / "s.npy"]
     else:
