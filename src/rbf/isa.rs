@@ -163,6 +163,16 @@ mod tests {
         );
     }
 
+    /// A level forced by `IMPLICITIZE_ISA` is the one evaluation runs: a run meant to test a
+    /// level the CPU lacks (CI runs the numeric tests at every level the CPU supports) fails
+    /// here instead of silently testing the best level.
+    #[test]
+    fn a_forced_level_is_the_one_selected() {
+        if let Ok(name) = std::env::var(ENV) {
+            assert_eq!(Isa::selected().level().name(), name, "{ENV}={name} is not what runs");
+        }
+    }
+
     #[test]
     fn names_round_trip_and_bad_values_are_one_line_errors() {
         for level in IsaLevel::ALL {

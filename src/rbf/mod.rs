@@ -21,15 +21,18 @@
 //! ## Guarantees
 //! * Up to [`DIRECT_MAX`] constraints the solve is exact (a dense factorization in f64, by the
 //!   null-space method and Cholesky, refined); above, it is iterative (FGMRES with a domain
-//!   decomposition preconditioner, `rbf/iterative.rs`), to a residual of at most `1e-8` of the
-//!   largest |value|, in `O(n)` memory. Either way it is checked: [`Implicit::solve`] reports the largest interpolation residual relative to the
-//!   largest |value| and refuses a system whose residual shows it is numerically singular.
-//!   Coincident or nearly coincident constraints, too few affinely independent positions for
-//!   the polynomial, and NaN or infinite input are errors, never a silent garbage model.
+//!   decomposition preconditioner), to a residual of at most `1e-8` of the largest |value|, in
+//!   `O(n)` memory. Either way it is checked: [`Implicit::solve`] reports the largest
+//!   interpolation residual relative to the largest |value| and refuses a system whose
+//!   residual shows it is numerically singular. Coincident or nearly coincident constraints,
+//!   too few affinely independent positions for the polynomial, and NaN or infinite input are
+//!   errors, never a silent garbage model.
 //! * Positions are normalized internally (translated to their centroid and scaled by their
 //!   largest extent), so meshes far from the origin or in large units are as well conditioned as
 //!   a unit-sized one, and this changes nothing in the function (see below).
-//! * Evaluation is in f64 throughout, vectorized over points and parallel (see below).
+//! * The solve, single values and gradients, and the values of [`Implicit::values3`],
+//!   [`Implicit::values_flat`] and [`Field::values`] are f64 (see below); only
+//!   [`SinglePrecision`], for the fit's volume passes, sums in f32.
 //! * [`evaluate_on_grid`] is the paper's coarse-to-fine volume evaluation (5.2), with its one
 //!   blind spot documented there.
 //!
@@ -41,7 +44,7 @@
 //! conditions `sum_j d_j = 0` and `sum_j d_j c_j = 0` reduce it to a constant that the polynomial
 //! absorbs, so both systems have the same unique solution function.
 //!
-//! ## Evaluation: f64 lanes
+//! ## Evaluation: f64 lanes, and f32 where a fit allows it
 //! The sum `sum_j d_j phi(|x - c_j|)` cancels heavily (the weights sum to zero and the far-field
 //! growth of `r^2 log r` cancels against the polynomial), so its terms are orders of magnitude
 //! larger than the result. f32 lanes would leave an error near `1e-7 sum_j |d_j phi_j|`, far
@@ -53,13 +56,30 @@
 //! AVX-512, AVX2 + FMA and the baseline target, and the best the CPU supports is chosen at run
 //! time ([`Isa`]; `IMPLICITIZE_ISA` forces one). Blocks of points are spread over threads with
 //! rayon.
+//!
+//! The fit's volume passes need each voxel's sign and the surface's position to a small
+//! fraction of a voxel, no more: through [`SinglePrecision`] they sum the thin-plate kernel in
+//! f32 where the CPU has a loop for it (AVX-512, AVX2 with FMA), and the fit measures a model's
+//! f32 error at its boundary constraints first, keeping f64 where f32 would misplace the surface
+//! by more than a share of its target error.
+//!
+//! ## Layers
+//! [`Isa`] (`isa.rs`) and the kernels and their loops (`kernel/`) are the bottom; the treecode
+//! (`treecode.rs`) sums with those loops; evaluation (`evaluate.rs`) chooses between the direct
+//! sum and the treecode. The dense factorization (`dense.rs`) serves both the direct solve and
+//! the local problems of the Schwarz preconditioner (`schwarz.rs`), which with FGMRES
+//! (`gmres.rs`) makes the iterative solve (`iterative.rs`); `solve.rs` checks the input and
+//! the result and chooses between the two. No module imports one that imports it back
+//! (`tests/rbf_layers.rs`).
 
 mod csv;
+mod dense;
 mod evaluate;
 mod gmres;
 mod grid;
 mod isa;
 mod iterative;
+mod kernel;
 mod schwarz;
 mod solve;
 mod treecode;
@@ -73,69 +93,8 @@ use crate::geometry::DVec3;
 pub use csv::{read_constraints, read_constraints_bytes, read_points, read_points_bytes};
 pub use grid::evaluate_on_grid;
 pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};
+pub use kernel::Kernel;
 pub use solve::{DIRECT_MAX, MAX_RESIDUAL, MIN_SEPARATION};
-
-/// The radial basis function `phi(r)` of a variational implicit function.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
-pub enum Kernel {
-    /// `phi(r) = r^2 log r`, the thin-plate spline: the paper's kernel and the default.
-    #[default]
-    #[serde(rename = "r2logr")]
-    ThinPlate,
-    /// `phi(r) = r^3`, the triharmonic spline in 3D.
-    #[serde(rename = "r3")]
-    Cubic,
-    /// `phi(r) = r`, the biharmonic spline in 3D.
-    #[serde(rename = "r")]
-    Linear,
-}
-
-impl Kernel {
-    /// The kernel's name in model files and on the command line: `r2logr`, `r3` or `r`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Kernel::ThinPlate => "r2logr",
-            Kernel::Cubic => "r3",
-            Kernel::Linear => "r",
-        }
-    }
-
-    /// The kernel named `name` (`r2logr`, `r3` or `r`).
-    pub fn from_name(name: &str) -> Option<Kernel> {
-        [Kernel::ThinPlate, Kernel::Cubic, Kernel::Linear].into_iter().find(|k| k.name() == name)
-    }
-
-    /// `phi(r)`, written as a function of `r^2` so that no square root is needed for
-    /// `r^2 log r = 0.5 r^2 ln(r^2)`. Zero at `r = 0` for every kernel.
-    #[inline]
-    pub fn phi_of_r2(self, r2: f64) -> f64 {
-        match self {
-            Kernel::ThinPlate if r2 > 0.0 => 0.5 * r2 * r2.ln(),
-            Kernel::ThinPlate => 0.0,
-            Kernel::Cubic => r2 * r2.sqrt(),
-            Kernel::Linear => r2.sqrt(),
-        }
-    }
-
-    /// `phi'(r) / r` as a function of `r^2`: the gradient of `phi(|x - c|)` is this times
-    /// `x - c`. Zero at `r = 0`, where the product with `x - c` vanishes (or, for `r`, where the
-    /// gradient is undefined and zero is reported).
-    #[inline]
-    pub fn dphi_over_r(self, r2: f64) -> f64 {
-        match self {
-            Kernel::ThinPlate if r2 > 0.0 => r2.ln() + 1.0,
-            Kernel::Cubic => 3.0 * r2.sqrt(),
-            Kernel::Linear if r2 > 0.0 => 1.0 / r2.sqrt(),
-            Kernel::ThinPlate | Kernel::Linear => 0.0,
-        }
-    }
-}
-
-impl std::fmt::Display for Kernel {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
 
 /// What a constraint asks of the surface, read from the sign of its value (paper 3.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -236,7 +195,7 @@ impl Normalization {
 }
 
 /// The dimensions a variational implicit function can have.
-pub const DIMENSIONS: std::ops::RangeInclusive<usize> = 2..=4;
+pub(crate) const DIMENSIONS: std::ops::RangeInclusive<usize> = 2..=4;
 
 impl Implicit {
     /// The dimension: 2, 3 or 4.
@@ -404,12 +363,11 @@ impl Implicit {
 }
 
 /// An implicit function whose bulk evaluation ([`Field::values`]) runs its radial sum in f32
-/// where that is faster (the thin-plate kernel on AVX-512, 2.6x the f64 loop): an error near
-/// `1e-7` of `sum_j |d_j phi_j|` instead of `1e-15` (on a 768-constraint bunny fit at 220, at
-/// most 0.005 voxels; on fits of 2,000 to 4,300 centres at 512, whose weights cancel more, up
-/// to 0.8 voxels, so the fit checks it before using it). For passes that need signs and the
-/// surface's position to a small fraction of a voxel, as the fit's volume passes; single
-/// values and gradients stay f64.
+/// where the CPU has a loop for it (the thin-plate kernel on AVX-512, and on AVX2 with FMA):
+/// an error near `1e-7` of `sum_j |d_j phi_j|` instead of `1e-15`, which misplaces the surface
+/// by more the more the weights cancel, so a caller measures it before relying on it (as the
+/// fit does). For passes that need signs and the surface's position to a small fraction of a
+/// voxel, as the fit's volume passes; single values and gradients stay f64.
 #[derive(Debug, Clone, Copy)]
 pub struct SinglePrecision<'a>(pub &'a Implicit);
 

@@ -25,9 +25,8 @@
 use faer::Mat;
 use rayon::prelude::*;
 
-use super::Kernel;
-use super::evaluate;
-use super::solve::{NullSpace, system_matrix_with};
+use super::dense::{NullSpace, system_matrix_with};
+use super::kernel::{self, Kernel};
 
 /// The sizes of the decomposition.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,7 +125,7 @@ impl Schwarz {
         let at: Vec<f64> = (0..self.dim)
             .flat_map(|a| coarse.indices.iter().map(move |&i| centres[a * n + i]))
             .collect();
-        let reached = evaluate::radial_sums(self.dim, self.kernel, centres, &z[..n], &at);
+        let reached = kernel::radial_sums(self.dim, self.kernel, centres, &z[..n], &at);
         let remaining: Vec<f64> =
             coarse.indices.iter().zip(&reached).map(|(&i, s)| r[i] - s).collect();
         let (d, p) = coarse.solve_local(&remaining);

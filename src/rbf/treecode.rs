@@ -22,7 +22,7 @@
 //!   the nodes have them, others are split (the larger node first), and pairs where neither side
 //!   could interpolate are summed directly.
 //! * Every interaction list, gathered as centres per axis and weights, is summed by the same
-//!   vectorized loop as the direct sum ([`super::evaluate`]). Each thread gathers into buffers
+//!   vectorized loop as the direct sum ([`super::kernel`]). Each thread gathers into buffers
 //!   it keeps from one list to the next, and each leaf interpolates its far field from the
 //!   smallest grid above it, eight points at a time (a vector lane each).
 //!
@@ -31,42 +31,30 @@
 //! error and the cancellation between large terms (the weights sum to zero) costs no accuracy
 //! beyond that of the sums themselves.
 //!
-//! ## Error
-//! With [`PARAMS`] (`p = 8`, `theta = 0.6`) the values are within `1e-5` of the function's value
-//! range (the largest `|f|` over the evaluated points) of the direct sum. Measured at 50,000
-//! points in and around the box (grown by a fifth on every side): at most `3.0e-6` for `r^3`,
-//! `1.1e-6` for `r^2 log r` and `5.1e-7` for `r` on the bunny fit (700 constraints), `6e-8` on a
-//! fitted 5,000-constraint torus. The tests check `1e-5` on these, on 20,000 centres with random
-//! weights, and that the zero crossing near the bunny's surface moves by less than a hundredth
-//! of a voxel of a 200-voxel grid.
+//! ## Guarantees
+//! * With [`PARAMS`] (`p = 8`, `theta = 0.6`) the values are within `1e-5` of the function's
+//!   value range (the largest `|f|` over the evaluated points) of the direct sum. The tests
+//!   check it for every kernel on the bunny fit (700 constraints), on a fitted 5,000-constraint
+//!   torus and on 20,000 centres with random weights, and that the zero crossing near the
+//!   bunny's surface moves by less than a hundredth of a voxel of a 200-voxel grid.
+//! * The result depends only on the centres, weights and points, never on the number of
+//!   threads: every list is gathered and summed in a fixed order.
+//! * Only three-dimensional functions are summed this way; evaluation keeps the direct sum in
+//!   two and four dimensions.
 //!
 //! ## Cost and where it is used
 //! The cost per point is about `(p + 1)^3` times the centres in a shell around the smallest
 //! target node with a grid, over that node's points, plus the centres near the point: some 4,000
 //! kernel evaluations per point for 20,000 centres on a surface and 1,000,000 points in its box
-//! (20,000 for the direct sum). Measured on 2 shared AVX2 cores (direct vs treecode, same run):
-//! 5,000 centres at 100,000 points 2.3 s vs 2.3 s, at 1,000,000 points 22.9 s vs 8.0 s; 20,000
-//! centres at 100,000 points 8.5 s vs 7.3 s, at 1,000,000 points 82.7 s vs 23.1 s (the direct
-//! sums timed on 20,000 of the points and scaled). The criterion bench (benches/rbf.rs,
-//! `treecode`): 5,000 centres at 200,000 points 3.24 s direct vs 2.30 s; 20,000 at 1,000,000
-//! 18.6 s by the treecode (the machine's load was near 9 throughout). [`pays`] therefore asks
-//! for at least 5,000 centres and 200,000 points. Only three-dimensional functions are summed
-//! this way (two and four dimensions keep the direct sum). The result depends only on the
-//! centres, weights and points, never on the number of threads: every list is gathered and
-//! summed in a fixed order.
-//!
-//! Reusing the gathering buffers (fresh ones cost a page fault and a cleared page every few
-//! lists) and interpolating eight points at a time took `implicitize eval` of the
-//! 20,000-centre bunny model at 1,000,000 points (`scripts/bench-solve-20k.sh`) from 2.36 to
-//! 2.69 s to 1.92 to 1.97 s as a whole process, and its peak memory from 300 to 205 MB (2-core
-//! AVX-512 machine, before and after alternating, three runs each). With the AVX2 loops forced
-//! on the same machine (`IMPLICITIZE_ISA=avx2`) the kernel's f64 loop is most of the time: 4.04
-//! to 4.33 s before, 3.99 to 4.20 s after.
+//! (20,000 for the direct sum). The trees and grids cost more than they save for few centres or
+//! few points, so evaluation uses the treecode only from the sizes [`pays`] names, where the
+//! criterion bench (`benches/rbf.rs`, `treecode`) finds it ahead of the direct sum.
 
 use rayon::prelude::*;
 
-use super::evaluate::{Centres, LANES, Phi, dispatch};
+use super::Implicit;
 use super::isa::Isa;
+use super::kernel::{self, Centres, LANES, Phi};
 
 /// The most Chebyshev points per axis of any [`Params::degree`].
 const MAX_NODES: usize = 12;
@@ -85,7 +73,7 @@ pub(super) struct Params {
     pub target_leaf: usize,
 }
 
-/// The parameters [`super::evaluate`] uses.
+/// The parameters evaluation uses.
 pub(super) const PARAMS: Params =
     Params { degree: 8, theta: 0.6, source_leaf: 32, target_leaf: 64 };
 
@@ -111,9 +99,44 @@ pub(super) fn least_points(centres: usize) -> Option<usize> {
 /// Points (or centres) given per axis.
 type Axes<'a> = [&'a [f64]; 3];
 
+/// The values of the three-dimensional `implicit` at `count` points, the `i`th written (in the
+/// mesh's units) by `point(i, buffer)`, with the radial part summed by the treecode: every
+/// point normalized at once, the polynomial added in f64. `None` when a coordinate is not
+/// finite (the direct sum confines such a point's NaN to its own value).
+pub(super) fn values<K: Phi>(
+    isa: Isa,
+    params: &Params,
+    implicit: &Implicit,
+    count: usize,
+    point: &(impl Fn(usize, &mut [f64]) + Sync),
+) -> Option<Vec<f64>> {
+    let normalized: Vec<[f64; 3]> = (0..count)
+        .into_par_iter()
+        .map(|i| {
+            let (mut raw, mut x) = ([0.0; 3], [0.0; 3]);
+            point(i, &mut raw);
+            implicit.normalization.apply(&raw, &mut x);
+            x
+        })
+        .collect();
+    if !normalized.par_iter().all(|x| x.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    let axes: [Vec<f64>; 3] =
+        std::array::from_fn(|a| normalized.par_iter().map(|x| x[a]).collect());
+    let poly = &implicit.polynomial;
+    let mut out: Vec<f64> = normalized
+        .par_iter()
+        .map(|x| poly[0] + poly[1] * x[0] + poly[2] * x[1] + poly[3] * x[2])
+        .collect();
+    let points = std::array::from_fn(|a| axes[a].as_slice());
+    radial::<K>(isa, params, &implicit.centres, &implicit.weights, points, &mut out);
+    Some(out)
+}
+
 /// `sum_j d_j phi(|x_i - c_j|)` for every point `x_i`, added to `out` (as long as the
-/// points): `centres` per axis one after another, `weights` already scaled for `K`.
-pub(super) fn radial<K: Phi>(
+/// points): `centres` per axis one after another.
+fn radial<K: Phi>(
     isa: Isa,
     params: &Params,
     centres: &[f64],
@@ -649,7 +672,7 @@ fn sum_at<K: Phi>(isa: Isa, gathered: &Gathered, at: Axes) -> Vec<f64> {
         axis
     });
     let centres = Centres { centres: &gathered.centres, weights: &gathered.weights };
-    dispatch::<3, K>(isa, &centres, &points, &mut out);
+    kernel::sum::<3, K>(isa, &centres, &points, &mut out);
     out
 }
 
@@ -660,7 +683,8 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    use crate::rbf::evaluate::{Summation, values_with};
+    use crate::rbf::isa::Isa;
+    use crate::rbf::kernel::{self, Phi, Specialized};
     use crate::rbf::{Constraint, Implicit, Kernel, read_constraints};
 
     use super::{PARAMS, Params};
@@ -670,17 +694,34 @@ mod tests {
     /// The error bound of the module doc, relative to the value range.
     const BOUND: f64 = 1e-5;
 
-    /// The values at `points` by summation `sum`.
-    fn values(implicit: &Implicit, sum: Summation, points: &[[f64; 3]]) -> Vec<f64> {
-        let isa = crate::rbf::Isa::selected();
-        values_with(isa, sum, implicit, points.len(), |i, out| out.copy_from_slice(&points[i]))
+    /// The values at `points` by the treecode with `params`.
+    fn by_treecode(implicit: &Implicit, params: Params, points: &[[f64; 3]]) -> Vec<f64> {
+        let work = ByTreecode { params, implicit, points };
+        kernel::specialize(3, implicit.kernel(), work).expect("finite points")
+    }
+
+    /// The work of [`by_treecode`].
+    struct ByTreecode<'a> {
+        params: Params,
+        implicit: &'a Implicit,
+        points: &'a [[f64; 3]],
+    }
+
+    impl Specialized for ByTreecode<'_> {
+        type Output = Option<Vec<f64>>;
+
+        fn run<const D: usize, K: Phi>(self) -> Option<Vec<f64>> {
+            let (isa, points) = (Isa::selected(), self.points);
+            let point = |i: usize, out: &mut [f64]| out.copy_from_slice(&points[i]);
+            super::values::<K>(isa, &self.params, self.implicit, points.len(), &point)
+        }
     }
 
     /// The largest difference between treecode and direct sum at `points`, relative to the
     /// largest exact `|f|` there.
     fn relative_error(implicit: &Implicit, params: Params, points: &[[f64; 3]]) -> f64 {
-        let exact = values(implicit, Summation::Direct, points);
-        let fast = values(implicit, Summation::Treecode(params), points);
+        let exact = implicit.values3_exact(points);
+        let fast = by_treecode(implicit, params, points);
         let range = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let worst = exact.iter().zip(&fast).fold(0.0f64, |m, (e, f)| m.max((e - f).abs()));
         worst / range
@@ -804,8 +845,8 @@ mod tests {
                     .collect::<Vec<[f64; 3]>>()
             })
             .collect();
-        let exact = values(&implicit, Summation::Direct, &points);
-        let fast = values(&implicit, Summation::Treecode(PARAMS), &points);
+        let exact = implicit.values3_exact(&points);
+        let fast = by_treecode(&implicit, PARAMS, &points);
         let range = exact.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for ((p, e), f) in points.iter().zip(&exact).zip(&fast) {
             let slope = implicit.gradient_at(p).iter().map(|g| g * g).sum::<f64>().sqrt();
@@ -823,7 +864,7 @@ mod tests {
         let points = points_around(implicit.constraints(), 20_000, 6);
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| values(&implicit, Summation::Treecode(PARAMS), &points))
+            pool.install(|| by_treecode(&implicit, PARAMS, &points))
         };
         let one = run(1);
         assert!(one.iter().zip(run(3)).all(|(a, b)| a.to_bits() == b.to_bits()));

@@ -1,6 +1,6 @@
 //! The thin-plate loop `sum_j d_j r_j^2 ln r_j` written with AVX-512 intrinsics.
 //!
-//! The auto-vectorized loop of the parent module is bound both by the division of its logarithm
+//! The auto-vectorized loop ([`super::portable`]) is bound both by the division of its logarithm
 //! (one `vdivpd` per 8 lanes) and by its count of vector operations. This loop removes the
 //! division and a third of the operations, by a table-driven logarithm that the compiler cannot
 //! derive from scalar code:

@@ -1,5 +1,5 @@
 //! The thin-plate loop `sum_j d_j r_j^2 ln r_j` in f32 with AVX2 and FMA intrinsics, for the
-//! fit's volume passes on CPUs without AVX-512 (see [`super::values_f32`]).
+//! fit's volume passes on CPUs without AVX-512 (see [`super::ThinPlateF32`]).
 //!
 //! Eight f32 lanes a vector against the f64 loop's four, and a logarithm without division:
 //! * `x = 2^e m` with `m` in `[1, 2)` from the bits of `x` (exponent field minus the bias, and
