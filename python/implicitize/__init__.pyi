@@ -56,11 +56,12 @@ class Model:
         ``resolution`` None is DEFAULTS["resolution"]."""
     def render(
         self,
-        size: Tuple[int, int] = (800, 600),
-        view: Tuple[float, float] = (35.0, 20.0),
+        size: Optional[Tuple[int, int]] = None,
+        view: Optional[Tuple[float, float]] = None,
         color: str = "plain",
     ) -> npt.NDArray[np.uint8]:
-        """A picture (height, width, 3) of the surface on white, as ``implicitize render``."""
+        """A picture (height, width, 3) of the surface on white, as ``implicitize render``;
+        ``size`` and ``view`` None are its defaults."""
 
 def voxelize(
     mesh: Any,

@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::fit::IterationReport;
 use implicitize::pipeline::{self, FitObserver, FitOutputs, PolygonizeOptions};
-use implicitize::render::{Camera, Coloring, March, march_bounds, render_field};
+use implicitize::render::{
+    Camera, Coloring, DEFAULT_SIZE, DEFAULT_VIEW, March, march_bounds, render_field,
+};
 use implicitize::{DVec3, Field, Implicit, Model};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
@@ -167,15 +169,18 @@ impl PyModel {
 
     /// A picture of the surface from its function (as `implicitize render MODEL`): an RGB
     /// array (height, width, 3) of uint8 on a white background.
-    #[pyo3(signature = (size=(800, 600), view=(35.0, 20.0), color="plain"))]
+    #[pyo3(signature = (size=None, view=None, color="plain"))]
     fn render<'py>(
         &self,
         py: Python<'py>,
-        size: (i64, i64),
-        view: (f64, f64),
+        size: Option<(i64, i64)>,
+        view: Option<(f64, f64)>,
         color: &str,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
         self.check_3d("render")?;
+        let [w, h] = DEFAULT_SIZE.map(|s| s as i64);
+        let size = size.unwrap_or((w, h));
+        let view = view.unwrap_or(DEFAULT_VIEW.into());
         let side = |s: i64| usize::try_from(s).ok().filter(|s| (1..=Camera::MAX_SIDE).contains(s));
         let (Some(width), Some(height)) = (side(size.0), side(size.1)) else {
             return Err(invalid(format!(

@@ -192,7 +192,8 @@ pub fn demo(args: &DemoCommand, progress: Progress) -> anyhow::Result<()> {
     let bytes = Some(TRICERATOPS_OBJ.len() as u64);
     let from = MeshSource::Mesh { mesh: &mesh, name: &name, bytes };
     let fitted = fit_and_write(from, "triceratops", &args.fit, &outputs, None, progress)?;
-    compare_picture(&mesh, &fitted.model, 800, 600)?.save_png(&compare)?;
+    let [width, height] = implicitize::render::DEFAULT_SIZE;
+    compare_picture(&mesh, &fitted.model, width, height)?.save_png(&compare)?;
     let written = [&outputs.model, &outputs.report, &outputs.surface]
         .map(|p| p.as_ref().map_or(String::new(), |p| p.display().to_string()));
     progress.line(format!(

@@ -17,15 +17,14 @@ use implicitize::metrics::RegularityOptions;
 use implicitize::model::Model;
 use implicitize::pipeline::{MeshFitOptions, Prepared};
 use implicitize::render::{
-    Camera, Coloring, Image, March, Shading, grid_box, march_bounds, render_field, render_mesh,
+    Camera, Coloring, DEFAULT_SIZE, DEFAULT_VIEW, Image, March, Shading, grid_box, march_bounds,
+    render_field, render_mesh,
 };
 use implicitize::{Aabb, Field, Grid, Mesh};
 
 use super::common::{GridArgs, Progress, check_outputs, memory_limit, read_mesh};
 use crate::figure3::figure3;
 
-/// The default view: a three-quarter view from the front right and a little above.
-const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
 
 /// How the surface is coloured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -48,7 +47,7 @@ pub struct RenderCommand {
     #[arg(short, long)]
     pub output: PathBuf,
     /// The picture's width and height in pixels (each half's, with --compare).
-    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = [800, 600])]
+    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = DEFAULT_SIZE)]
     pub size: Vec<usize>,
     /// The view direction in degrees: azimuth about the vertical +y axis (0 looks from +z,
     /// 90 from +x) and elevation above the horizon.

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::Args;
 use implicitize::model::Model;
-use implicitize::render::march_bounds;
+use implicitize::render::{DEFAULT_VIEW, march_bounds};
 use implicitize::shape::Shape;
 use implicitize::{Aabb, Mesh, output, shader};
 use serde_json::{Value, json};
@@ -28,9 +28,6 @@ const DATA_MARK: &str = "/*IMPLICITIZE-DATA*/";
 /// The most triangles of a `--mesh` the page takes: 2 million triangles make a page of about
 /// 50 MB, which browsers still open; decimate larger meshes first.
 pub const MAX_MESH_TRIANGLES: usize = 2_000_000;
-
-/// The view the page opens with when its address names none: `render`'s default.
-const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
 
 /// Arguments of `implicitize view`.
 #[derive(Debug, Args)]
