@@ -514,3 +514,62 @@ fn without_timings(report: &FitReport) -> serde_json::Value {
     }
     report
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::DVec3;
+
+    /// A unit cube of 12 triangles.
+    fn cube() -> Mesh {
+        let vertices = (0..8)
+            .map(|c| DVec3::new(f64::from(c & 1), f64::from(c >> 1 & 1), f64::from(c >> 2 & 1)))
+            .collect();
+        let quads =
+            [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let triangles =
+            quads.iter().flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]]).collect();
+        Mesh { vertices, triangles }
+    }
+
+    #[test]
+    fn the_constraints_are_capped_where_their_solve_would_pass_the_memory_limit() {
+        let mesh = cube();
+        let options =
+            MeshFitOptions { resolution: Resolution::LongestAxis(16), ..Default::default() };
+        let cap = |limit: MemoryLimit| {
+            let mut options = options.clone();
+            options.memory_limit = limit;
+            let prepared = Prepared::new(&mesh, "cube", &options).unwrap();
+            (prepared.constraints_within_memory(fit::MAX_CONSTRAINTS), *prepared.grid())
+        };
+        let (unlimited, grid) = cap(MemoryLimit::Bytes(u64::MAX));
+        assert_eq!(unlimited, fit::MAX_CONSTRAINTS);
+        let estimate = |n: usize| Estimate::fit_solving(grid.dims, 12, n).bytes;
+        let limit = Estimate::fit(grid.dims, 12).bytes + (300 << 20);
+        let (capped, _) = cap(MemoryLimit::Bytes(limit));
+        assert!((crate::rbf::DIRECT_MAX..fit::MAX_CONSTRAINTS).contains(&capped), "{capped}");
+        assert!(estimate(capped) <= limit && estimate(capped + 1) > limit);
+        let tight = Estimate::fit(grid.dims, 12).bytes;
+        assert_eq!(cap(MemoryLimit::Bytes(tight)).0, crate::rbf::DIRECT_MAX, "a dense solve fits");
+    }
+
+    #[test]
+    fn a_grid_beyond_the_limit_is_refused_naming_the_largest_resolution() {
+        let mesh = cube();
+        let mut options = MeshFitOptions {
+            resolution: Resolution::LongestAxis(1000),
+            memory_limit: MemoryLimit::Bytes(256 << 20),
+            ..Default::default()
+        };
+        let error = Prepared::new(&mesh, "cube.obj", &options).unwrap_err();
+        assert!(matches!(error, Error::Memory { .. }));
+        let message = error.worded(crate::error::FrontEnd::Cli);
+        assert!(message.starts_with("cube.obj: a grid of 1000 x 1000 x 1000 voxels: needs"));
+        let largest: usize = message.rsplit("--resolution ").next().unwrap().parse().unwrap();
+        options.resolution = Resolution::LongestAxis(largest);
+        assert!(Prepared::new(&mesh, "cube.obj", &options).is_ok());
+        options.resolution = Resolution::LongestAxis(largest + 1);
+        assert!(matches!(Prepared::new(&mesh, "cube.obj", &options), Err(Error::Memory { .. })));
+    }
+}
