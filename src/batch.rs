@@ -240,10 +240,12 @@ struct Outputs {
 impl Outputs {
     fn of(job: &Job, out: &Path, sdf: bool) -> Outputs {
         let file = |suffix: &str| out.join(format!("{}{suffix}", job.name));
-        let mut files = FitOutputs::default();
-        files.model = Some(file(".json"));
-        files.report = Some(file(".report.json"));
-        files.sdf = sdf.then(|| file(".sdf.npy"));
+        let files = FitOutputs {
+            model: Some(file(".json")),
+            report: Some(file(".report.json")),
+            sdf: sdf.then(|| file(".sdf.npy")),
+            ..FitOutputs::default()
+        };
         Outputs { files, entry: file(".entry.json") }
     }
 

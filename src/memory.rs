@@ -74,7 +74,7 @@ impl Estimate {
 
     /// A fit of a mesh of `triangles` triangles (0 for a picture) on a grid of `dims` voxels,
     /// with room for a dense solve of the largest size ([`crate::rbf::DIRECT_MAX`]
-    /// constraints); [`Estimate::solve`] budgets larger ones as the fit grows.
+    /// constraints); [`Estimate::fit_solving`] budgets larger ones as the fit grows.
     pub fn fit(dims: [usize; 3], triangles: usize) -> Estimate {
         Estimate::fit_solving(dims, triangles, crate::rbf::DIRECT_MAX)
     }

@@ -4,7 +4,7 @@
 //!
 //! | job | options | function |
 //! |---|---|---|
-//! | fit a mesh and write what it made | [`MeshFitOptions`], [`FitOutputs`] | [`fit`] ([`fit_mesh`], [`fit_file`]) |
+//! | fit a mesh and write what it made | [`MeshFitOptions`], [`FitOutputs`] | [`fit()`] ([`fit_mesh`], [`fit_file`]) |
 //! | a mesh's densities or signed distance on a grid | [`VolumeOptions`] | [`volume`] |
 //! | polygonize a model's zero set | [`PolygonizeOptions`] | [`polygonize`] |
 //! | many meshes into one folder | [`crate::batch::BatchOptions`] | [`crate::batch::run`] |
@@ -22,7 +22,7 @@
 //! ```
 //!
 //! [`Prepared`] splits it after the goal, for callers that need the grid before the fit starts
-//! or the goal itself; a [`FitObserver`] sees the same points of the chain from [`fit`].
+//! or the goal itself; a [`FitObserver`] sees the same points of the chain from [`fit()`].
 //!
 //! Units and signs are those of the crate: positions in the mesh's own units, errors in voxels
 //! of the grid, values positive inside. The same mesh, options and seed give the same model,
@@ -198,7 +198,7 @@ impl<'a> MeshSource<'a> {
     }
 }
 
-/// What a caller of [`fit`] sees of the chain as it runs: the goal once it is made, and each
+/// What a caller of [`fit()`] sees of the chain as it runs: the goal once it is made, and each
 /// iteration of the iterative method with its model (for progress lines and pictures).
 pub trait FitObserver {
     /// The goal is made; the fit starts next.
@@ -264,20 +264,20 @@ pub fn fit(
     Ok(fitted)
 }
 
-/// Fits `mesh` as `options` say and writes nothing: [`fit`] on a mesh in memory.
+/// Fits `mesh` as `options` say and writes nothing: [`fit()`] on a mesh in memory.
 ///
 /// # Errors
-/// As [`fit`].
+/// As [`fit()`].
 pub fn fit_mesh(mesh: &Mesh, options: &MeshFitOptions) -> Result<Fitted> {
     let source = MeshSource::Mesh { mesh, name: "the mesh", bytes: None };
     fit(source, options, &FitOutputs::default(), &mut ())
 }
 
-/// Reads the mesh file at `path` (OBJ, PLY, STL or OFF) and fits it, writing nothing: [`fit`]
+/// Reads the mesh file at `path` (OBJ, PLY, STL or OFF) and fits it, writing nothing: [`fit()`]
 /// on a file. Every error names the file.
 ///
 /// # Errors
-/// As [`fit`].
+/// As [`fit()`].
 pub fn fit_file(path: &Path, options: &MeshFitOptions) -> Result<Fitted> {
     fit(MeshSource::File(path), options, &FitOutputs::default(), &mut ())
 }
@@ -480,7 +480,7 @@ impl Fitted {
     }
 
     /// Writes the model, the report and the surface `outputs` name (not the signed distance,
-    /// which only [`fit`] has), each atomically.
+    /// which only [`fit()`] has), each atomically.
     ///
     /// # Errors
     /// A file that cannot be written.

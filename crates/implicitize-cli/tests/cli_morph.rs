@@ -2,7 +2,6 @@
 
 use std::process::Command;
 
-use implicitize::fit::FitOptions;
 use implicitize::model::Model;
 use implicitize::{DVec3, MeshFitOptions, Resolution};
 use implicitize_test_support::meshes::{sphere, torus};

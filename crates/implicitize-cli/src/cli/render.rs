@@ -25,7 +25,6 @@ use implicitize::{Aabb, Field, Grid, Mesh};
 use super::common::{GridArgs, Progress, check_outputs, memory_limit, read_mesh};
 use crate::figure3::figure3;
 
-
 /// How the surface is coloured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ColorArg {
