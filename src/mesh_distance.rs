@@ -248,14 +248,17 @@ impl MeshDistance {
     /// The distance of each point to the surface, positive inside and negative outside, inside
     /// being where the generalized winding number is at least 1/2 (see the module doc).
     pub fn signed(&self, points: &[DVec3]) -> Vec<f64> {
+        let nearest = self.nearest_all(points);
+        let inside = self.inside(points);
+        nearest.iter().zip(inside).map(|(n, inside)| signed(n.distance, inside)).collect()
+    }
+
+    /// Whether each point is inside: where the generalized winding number is at least 1/2,
+    /// the sign [`MeshDistance::signed`] gives (see the module doc). Builds the winding
+    /// number's tree for the call.
+    pub fn inside(&self, points: &[DVec3]) -> Vec<bool> {
         let winding = self.winding();
-        points
-            .par_iter()
-            .map(|&p| {
-                let distance = self.nearest(p).distance;
-                if winding.at(p) >= 0.5 { distance } else { -distance }
-            })
-            .collect()
+        points.par_iter().map(|&p| winding.at(p) >= 0.5).collect()
     }
 
     /// The winding number's tree over the triangles (in the hierarchy's order: the sum does
@@ -263,6 +266,11 @@ impl MeshDistance {
     fn winding(&self) -> Winding {
         Winding::new(self.triangles.clone())
     }
+}
+
+/// `distance` with the sign of the crate: positive inside, negative outside.
+pub fn signed(distance: f64, inside: bool) -> f64 {
+    if inside { distance } else { -distance }
 }
 
 /// The closest point of triangle `abc` to `p` and its barycentric coordinates. A triangle

@@ -278,3 +278,40 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn the_distance_job_signs_checks_points_and_memory() {
+    use implicitize::memory::MemoryLimit;
+    use implicitize::pipeline::{self, DistanceOptions};
+
+    let ball = sphere(DVec3::ZERO, 1.0, 32, 64);
+    let points = [DVec3::ZERO, DVec3::new(0.0, 0.0, 3.0), DVec3::new(-2.0, 0.0, 0.0)];
+    let mut options = DistanceOptions::default();
+    let found = pipeline::distance(&ball, "ball.obj", &points, &options).unwrap();
+    let distance = MeshDistance::new(&ball).unwrap();
+    assert_eq!(found.values, distance.signed(&points));
+    assert_eq!(found.nearest, distance.nearest_all(&points));
+    // A pole is a vertex: exactly 2 away. The centre is within the tessellation's sag of 1.
+    assert_eq!(found.values[1], -2.0);
+    assert!(found.values[0] > 0.99 && found.values[0] <= 1.0, "{:?}", found.values);
+    assert!(found.values[2] <= -1.0 && found.values[2] > -1.01, "{:?}", found.values);
+
+    options.signed = false;
+    let unsigned = pipeline::distance(&ball, "ball.obj", &points, &options).unwrap();
+    assert_eq!(unsigned.values, found.values.iter().map(|v| v.abs()).collect::<Vec<_>>());
+
+    let nan = pipeline::distance(&ball, "ball.obj", &[DVec3::new(0.0, f64::NAN, 0.0)], &options);
+    assert_eq!(
+        nan.unwrap_err().to_string(),
+        "ball.obj: point 0 has a non-finite coordinate: [0, NaN, 0]"
+    );
+    options.memory_limit = MemoryLimit::Bytes(1 << 20);
+    let refused = pipeline::distance(&ball, "ball.obj", &points, &options).unwrap_err().to_string();
+    assert!(refused.contains("exceeds the memory limit of 1.0 MB"), "{refused}");
+    let empty = Mesh { vertices: ball.vertices.clone(), triangles: vec![] };
+    let refused = pipeline::distance(&empty, "empty.obj", &points, &DistanceOptions::default());
+    assert_eq!(
+        refused.unwrap_err().to_string(),
+        "empty.obj: mesh: no triangles to measure a distance to"
+    );
+}
