@@ -78,6 +78,7 @@
 //! | place a voxel grid | [`grid`] | 4 |
 //! | voxelize: densities, robust inside/outside | [`voxelize`] | 4.1 |
 //! | signed distance, boundary voxels, surface points | [`distance`] | 4.2, 5.1, 5.3 |
+//! | exact distance from points to a mesh, closest points, signed by the winding number | [`mesh_distance`] | |
 //! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
 //! | error metrics E, Ew, RMS and the radius of regularity | [`metrics`] | 4.3 |
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
@@ -105,6 +106,7 @@ pub mod goal2d;
 pub mod grid;
 pub mod memory;
 pub mod mesh;
+pub mod mesh_distance;
 pub mod metrics;
 pub mod model;
 pub mod morph;

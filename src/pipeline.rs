@@ -6,6 +6,7 @@
 //! |---|---|---|
 //! | fit a mesh and write what it made | [`MeshFitOptions`], [`FitOutputs`] | [`fit()`] ([`fit_mesh`], [`fit_file`]) |
 //! | a mesh's densities or signed distance on a grid | [`VolumeOptions`] | [`volume`] |
+//! | distances from points to a mesh, closest points | [`DistanceOptions`] | [`distance()`] |
 //! | polygonize a model's zero set | [`PolygonizeOptions`] | [`polygonize`] |
 //! | many meshes into one folder | [`crate::batch::BatchOptions`] | [`crate::batch::run`] |
 //!
@@ -38,10 +39,11 @@ use crate::distance;
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::fit::{self, FitOptions, FitReport, Goal, IterationReport, Termination};
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, DVec3};
 use crate::grid::{Grid, Resolution, Volume};
 use crate::memory::{Estimate, MemoryLimit};
 use crate::mesh::{self, Mesh};
+use crate::mesh_distance::{self, MeshDistance, Nearest};
 use crate::model::Model;
 use crate::rbf::{Implicit, Isa};
 use crate::voxelize::{self, Inside, VoxelizeOptions};
@@ -122,6 +124,33 @@ pub enum VolumeKind {
     Density,
     /// The signed Euclidean distance of the voxelization, in voxels, inside positive (4.2).
     SignedDistance,
+}
+
+/// What a distance job ([`distance()`]) needs besides the mesh and the points.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct DistanceOptions {
+    /// Sign the distances by the generalized winding number, positive inside (default), or
+    /// leave them unsigned (and skip the winding number).
+    pub signed: bool,
+    /// The memory the job may use.
+    pub memory_limit: MemoryLimit,
+}
+
+impl Default for DistanceOptions {
+    fn default() -> Self {
+        DistanceOptions { signed: true, memory_limit: MemoryLimit::default() }
+    }
+}
+
+/// What a distance job ([`distance()`]) found for each point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Distances {
+    /// The distance from each point to the mesh, in its units: signed (positive inside) when
+    /// [`DistanceOptions::signed`], unsigned otherwise.
+    pub values: Vec<f64>,
+    /// Each point's closest point of the surface, its triangle and barycentric coordinates.
+    pub nearest: Vec<Nearest>,
 }
 
 /// What polygonizing a field ([`polygonize`]) needs besides the field.
@@ -338,6 +367,43 @@ pub fn volume(
         }
     };
     Ok((volume, voxelized.inside))
+}
+
+/// The exact distance from each of `points` to `mesh`'s triangles and the closest points (see
+/// [`crate::mesh_distance`]), signed by the winding number unless `options` says not to.
+/// `source` names the mesh in errors.
+///
+/// # Errors
+/// A mesh without triangles, with an index out of range or a non-finite coordinate; a
+/// non-finite point; an estimate that does not fit in the memory limit.
+pub fn distance(
+    mesh: &Mesh,
+    source: &str,
+    points: &[DVec3],
+    options: &DistanceOptions,
+) -> Result<Distances> {
+    if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+        return Err(Error::invalid(
+            source,
+            format!("point {i} has a non-finite coordinate: {}", points[i]),
+        ));
+    }
+    Estimate::distance(mesh.triangles.len(), points.len())
+        .check(options.memory_limit.bytes(), || None)
+        .map_err(|e| e.in_context(source))?;
+    let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
+    let nearest = query.nearest_all(points);
+    let values = if options.signed {
+        let inside = query.inside(points);
+        nearest
+            .iter()
+            .zip(inside)
+            .map(|(n, inside)| mesh_distance::signed(n.distance, inside))
+            .collect()
+    } else {
+        nearest.iter().map(|n| n.distance).collect()
+    };
+    Ok(Distances { values, nearest })
 }
 
 /// The zero set of `field` (inside positive) polygonized on the grid `options.resolution`

@@ -20,6 +20,7 @@ const PUBLIC_MODULES: &[&str] = &[
     "grid",
     "memory",
     "mesh",
+    "mesh_distance",
     "metrics",
     "model",
     "morph",

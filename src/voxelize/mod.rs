@@ -59,7 +59,7 @@
 
 mod orient;
 mod rays;
-mod winding;
+pub(crate) mod winding;
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -21,7 +21,8 @@ pub struct EvalArgs {
     pub output: PathBuf,
 }
 
-fn read_points(path: &Path) -> anyhow::Result<(Vec<f64>, usize)> {
+/// The points of a .npy (N x columns) or CSV file, flat, and their number of columns.
+pub(super) fn read_points(path: &Path) -> anyhow::Result<(Vec<f64>, usize)> {
     let csv = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv"));
     Ok(if csv {
         let (columns, points) = rbf::read_points(path)?;

@@ -12,6 +12,7 @@ use implicitize::pipeline::VolumeKind;
 mod batch;
 mod common;
 mod csg;
+mod distance;
 mod eval;
 mod export;
 mod fit;
@@ -58,6 +59,8 @@ enum Command {
     Solve(solve::SolveArgs),
     /// Evaluate a model at points (inside positive, outside negative).
     Eval(eval::EvalArgs),
+    /// The exact distance from points to a mesh, inside positive, and the closest points.
+    Distance(distance::DistanceArgs),
     /// Draw a model or a mesh to a PNG, or the two side by side (paper figures 1, 3-5).
     Render(render::RenderCommand),
     /// Combine two models: union, intersection or difference, sharp or blended (paper 1).
@@ -109,6 +112,7 @@ fn dispatch(command: &Command, progress: common::Progress) -> anyhow::Result<()>
         Command::Sdf(args) => volume::run(args, VolumeKind::SignedDistance, progress),
         Command::Solve(args) => solve::run(args, progress),
         Command::Eval(args) => eval::run(args, progress),
+        Command::Distance(args) => distance::run(args, progress),
         Command::Render(args) => render::run(args, progress),
         Command::Csg(args) => csg::run(args, progress),
         Command::Morph(args) => morph::run(args, progress),
