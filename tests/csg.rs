@@ -6,9 +6,8 @@ use implicitize::model::Model;
 use implicitize::shape::Shape;
 use implicitize::{Aabb, DVec3, Field, Grid, Resolution, polygonize};
 use implicitize_test_support::models::{ball, disc_2d};
+use implicitize_test_support::points::random_points;
 use implicitize_test_support::topology;
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 fn two_balls() -> (Model, Model) {
     (ball(DVec3::ZERO, 1.0, 1.0), ball(DVec3::new(1.1, 0.3, -0.2), 0.7, 3.0))
@@ -16,21 +15,6 @@ fn two_balls() -> (Model, Model) {
 
 fn combine(op: Operation, blend: f64, a: &Model, b: &Model) -> Composite {
     Composite::new("test", op, blend, vec![Child::from(a.clone()), Child::from(b.clone())]).unwrap()
-}
-
-fn random_points(bounds: &Aabb, n: usize, seed: u64) -> Vec<DVec3> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let pad = DVec3::splat(0.5);
-    let (lo, hi) = (bounds.min - pad, bounds.max + pad);
-    (0..n)
-        .map(|_| {
-            DVec3::new(
-                rng.random_range(lo.x..hi.x),
-                rng.random_range(lo.y..hi.y),
-                rng.random_range(lo.z..hi.z),
-            )
-        })
-        .collect()
 }
 
 /// The children's values divided by their distance scales.
@@ -46,7 +30,7 @@ fn check_signs(op: Operation, blend: f64, margin: f64) -> usize {
     let composite = combine(op, blend, &a, &b);
     let all =
         Aabb { min: a.bounds().min.min(b.bounds().min), max: a.bounds().max.max(b.bounds().max) };
-    let points = random_points(&all, 100_000, 11);
+    let points = random_points(&all, 0.5, 100_000, 11);
     let (va, vb) = (scaled_values(&a, &points), scaled_values(&b, &points));
     let values = composite.values(&points);
     let mut counted = 0;
@@ -93,7 +77,7 @@ fn a_blended_union_fills_the_crease_and_only_there() {
     let (a, b) = two_balls();
     let sharp = combine(Operation::Union, 0.0, &a, &b);
     let smooth = combine(Operation::Union, k, &a, &b);
-    let points = random_points(&sharp.bounds().unwrap(), 100_000, 5);
+    let points = random_points(&sharp.bounds().unwrap(), 0.5, 100_000, 5);
     let (va, vb) = (scaled_values(&a, &points), scaled_values(&b, &points));
     let (s, f) = (sharp.values(&points), smooth.values(&points));
     let mut filled = 0;
@@ -114,7 +98,7 @@ fn a_blended_union_fills_the_crease_and_only_there() {
 #[test]
 fn gradients_match_finite_differences_of_the_values() {
     let (a, b) = two_balls();
-    let points = random_points(&a.bounds(), 300, 3);
+    let points = random_points(&a.bounds(), 0.5, 300, 3);
     let eps = 1e-6;
     for op in Operation::ALL {
         for blend in [0.0, 0.3] {
@@ -150,7 +134,7 @@ fn children_are_brought_to_comparable_scale() {
     assert!((ss / sp - 50.0).abs() < 1e-6 * 50.0, "scales {sp} and {ss}");
     assert!((sp - 1.0).abs() < 0.25, "a ball fitted to distances has slope near 1: {sp}");
     let a = ball(DVec3::ZERO, 1.0, 1.0);
-    let points = random_points(&a.bounds(), 2000, 8);
+    let points = random_points(&a.bounds(), 0.5, 2000, 8);
     for op in Operation::ALL {
         let x = combine(op, 0.2, &a, &plain).values(&points);
         let y = combine(op, 0.2, &a, &steep).values(&points);
@@ -212,7 +196,7 @@ fn nested_composites_round_trip_through_the_file() {
     let loaded = Model::load(&first).unwrap();
     loaded.save(&second).unwrap();
     assert_eq!(std::fs::read(&first).unwrap(), std::fs::read(&second).unwrap());
-    let points = random_points(&outer.bounds(), 5000, 4);
+    let points = random_points(&outer.bounds(), 0.5, 5000, 4);
     assert_eq!(bits(&outer.values(&points)), bits(&loaded.values(&points)));
     assert_eq!(outer.bounds(), loaded.bounds());
     let Shape::Csg(composite) = loaded.shape() else { panic!("a composite") };

@@ -6,9 +6,8 @@ use implicitize::mesh::Mesh;
 use implicitize::mesh_distance::{MeshDistance, Nearest};
 use implicitize::{Aabb, DVec3};
 use implicitize_test_support::meshes::{point_triangle_distance, sphere, torus};
+use implicitize_test_support::points::random_points;
 use proptest::prelude::*;
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 /// The distance from `p` to the segment `ab`.
 fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
@@ -43,21 +42,6 @@ fn brute_force(mesh: &Mesh, p: DVec3) -> f64 {
         .fold(f64::MAX, f64::min)
 }
 
-/// `n` random points in `bounds` grown by `pad` on every side.
-fn random_points(bounds: Aabb, pad: f64, n: usize, seed: u64) -> Vec<DVec3> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let (lo, hi) = (bounds.min - pad, bounds.max + pad);
-    (0..n)
-        .map(|_| {
-            DVec3::new(
-                rng.random_range(lo.x..hi.x),
-                rng.random_range(lo.y..hi.y),
-                rng.random_range(lo.z..hi.z),
-            )
-        })
-        .collect()
-}
-
 /// Checks `found` for `p` against brute force (relative error below 1e-12, absolute on a mesh
 /// of size about 1) and that its point is on its triangle, where its barycentrics put it.
 fn check(mesh: &Mesh, p: DVec3, found: &Nearest) {
@@ -81,12 +65,12 @@ fn a_torus_matches_brute_force_near_and_far() {
     let mesh = torus(1.0, 0.3, 48, 24);
     let distance = MeshDistance::new(&mesh).unwrap();
     let bounds = mesh.bounds().unwrap();
-    let mut points = random_points(bounds, 0.1, 2000, 1);
-    points.extend(random_points(bounds, 50.0, 500, 2));
+    let mut points = random_points(&bounds, 0.1, 2000, 1);
+    points.extend(random_points(&bounds, 50.0, 500, 2));
     points.extend([DVec3::new(1e6, -3e5, 2e7), DVec3::ZERO, DVec3::new(0.0, 0.0, 0.3)]);
     // Right next to the surface: the vertices nudged along random directions by 1e-6.
     let nudges =
-        random_points(Aabb { min: DVec3::splat(-1e-6), max: DVec3::splat(1e-6) }, 0.0, 500, 3);
+        random_points(&Aabb { min: DVec3::splat(-1e-6), max: DVec3::splat(1e-6) }, 0.0, 500, 3);
     points.extend(mesh.vertices.iter().zip(&nudges).map(|(&v, &d)| v + d));
     let found = distance.nearest_all(&points);
     assert_eq!(found.len(), points.len());
@@ -166,7 +150,7 @@ fn degenerate_triangles_are_measured_as_segments_and_points() {
     };
     let distance = MeshDistance::new(&mesh).unwrap();
     let bounds = mesh.bounds().unwrap();
-    let mut points = random_points(bounds, 1.0, 3000, 4);
+    let mut points = random_points(&bounds, 1.0, 3000, 4);
     points.extend(mesh.vertices.iter().copied());
     points.extend([v(2.0, 0.0, 0.0), v(1.0, 5e-8, 1.0), v(1.0, 5e-8, 1.5), v(2.0, 1.0, 0.0)]);
     for (&p, found) in points.iter().zip(&distance.nearest_all(&points)) {
@@ -209,7 +193,7 @@ fn an_open_hemisphere_gives_finite_distances() {
     let mut bowl = sphere(DVec3::ZERO, 1.0, 16, 32);
     bowl.triangles.retain(|t| t.iter().all(|&i| bowl.vertices[i as usize].z <= 1e-9));
     let distance = MeshDistance::new(&bowl).unwrap();
-    let points = random_points(bowl.bounds().unwrap(), 0.5, 500, 5);
+    let points = random_points(&bowl.bounds().unwrap(), 0.5, 500, 5);
     let signed = distance.signed(&points);
     for ((&p, s), found) in points.iter().zip(&signed).zip(distance.nearest_all(&points)) {
         assert!(s.is_finite());

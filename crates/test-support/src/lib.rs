@@ -8,5 +8,6 @@ pub mod data;
 pub mod hostile;
 pub mod meshes;
 pub mod models;
+pub mod points;
 pub mod topology;
 pub mod wgsl;
