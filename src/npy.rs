@@ -1,5 +1,13 @@
-//! NumPy `.npy` files: volumes and point sets that users load with `numpy.load`.
+//! NumPy `.npy` files and `.npz` archives: volumes, point sets and samples that users load
+//! with `numpy.load`.
+//!
+//! An `.npz` is a ZIP archive of `.npy` files, one per array, named after the array. It is
+//! written here as stored (uncompressed) entries, the layout `numpy.savez` writes, by a small
+//! writer rather than a ZIP crate: stored entries need only the headers and a CRC-32
+//! (`crc32fast`, already built for PNG), and the archive has a fixed date, so the same arrays
+//! give the same bytes. It is not ZIP64: an archive or array past 4 GB is refused.
 
+use std::io::Write;
 use std::path::Path;
 
 use npyz::WriterBuilder;
@@ -19,6 +27,119 @@ pub fn write<T: npyz::AutoSerialize>(path: &Path, shape: &[u64], data: &[T]) -> 
         writer.extend(data.iter()).map_err(io)?;
         writer.finish().map_err(io)
     })
+}
+
+/// `data` as the bytes of a C-order NumPy `.npy` file of the given shape.
+pub fn to_bytes<T: npyz::AutoSerialize>(shape: &[u64], data: &[T]) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    let mut writer = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(shape)
+        .writer(&mut bytes)
+        .begin_nd()
+        .expect("writing to memory cannot fail");
+    writer.extend(data.iter()).expect("writing to memory cannot fail");
+    writer.finish().expect("writing to memory cannot fail");
+    bytes
+}
+
+/// Writes an `.npz` archive of `arrays` (each a name, without `.npy`, and the bytes of its
+/// `.npy` file, as [`to_bytes`] makes them), atomically ([`crate::output`]).
+///
+/// # Errors
+/// The file cannot be written, or it would pass 4 GB.
+pub fn write_npz(path: &Path, arrays: &[(&str, Vec<u8>)]) -> Result<()> {
+    let too_large = || {
+        Error::invalid(
+            path.display().to_string(),
+            "the archive would pass 4 GB, more than an .npz without ZIP64 holds; ask for fewer \
+             points",
+        )
+    };
+    let mut central = Vec::new();
+    let mut offset = 0u64;
+    let mut local = Vec::with_capacity(arrays.len());
+    for (name, bytes) in arrays {
+        let name = format!("{name}.npy");
+        let entry = ZipEntry {
+            name: name.as_bytes(),
+            crc: crc32fast::hash(bytes),
+            size: u32::try_from(bytes.len()).map_err(|_| too_large())?,
+            offset: u32::try_from(offset).map_err(|_| too_large())?,
+        };
+        central.extend(entry.header(true));
+        let header = entry.header(false);
+        offset += (header.len() + bytes.len()) as u64;
+        local.push(header);
+    }
+    let end = end_of_central_directory(
+        arrays.len(),
+        central.len(),
+        u32::try_from(offset).map_err(|_| too_large())?,
+    );
+    let io = |e: std::io::Error| Error::io(path, e);
+    crate::output::write_with(path, |out| {
+        for (header, (_, bytes)) in local.iter().zip(arrays) {
+            out.write_all(header).map_err(io)?;
+            out.write_all(bytes).map_err(io)?;
+        }
+        out.write_all(&central).map_err(io)?;
+        out.write_all(&end).map_err(io)
+    })
+}
+
+/// One stored file of a ZIP archive.
+struct ZipEntry<'a> {
+    name: &'a [u8],
+    crc: u32,
+    size: u32,
+    /// Where its local header starts.
+    offset: u32,
+}
+
+impl ZipEntry<'_> {
+    /// Its local header, or its central directory header (`central`).
+    fn header(&self, central: bool) -> Vec<u8> {
+        // Version 2.0, no flags, stored, 1980-01-01 00:00.
+        const VERSION: u16 = 20;
+        const DATE: u16 = (1 << 5) | 1;
+        let mut h = Vec::with_capacity(46 + self.name.len());
+        if central {
+            h.extend(0x0201_4b50u32.to_le_bytes());
+            h.extend(VERSION.to_le_bytes());
+        } else {
+            h.extend(0x0403_4b50u32.to_le_bytes());
+        }
+        for field in [VERSION, 0, 0, 0, DATE] {
+            h.extend(field.to_le_bytes());
+        }
+        h.extend(self.crc.to_le_bytes());
+        h.extend(self.size.to_le_bytes());
+        h.extend(self.size.to_le_bytes());
+        h.extend((self.name.len() as u16).to_le_bytes());
+        h.extend(0u16.to_le_bytes());
+        if central {
+            // Comment length, disk, internal and external attributes, local header's offset.
+            h.extend([0u8; 10]);
+            h.extend(self.offset.to_le_bytes());
+        }
+        h.extend(self.name);
+        h
+    }
+}
+
+/// The end of a ZIP archive's central directory of `entries` entries and `size` bytes, which
+/// starts at `offset`.
+fn end_of_central_directory(entries: usize, size: usize, offset: u32) -> Vec<u8> {
+    let mut e = Vec::with_capacity(22);
+    e.extend(0x0605_4b50u32.to_le_bytes());
+    e.extend([0u8; 4]);
+    e.extend((entries as u16).to_le_bytes());
+    e.extend((entries as u16).to_le_bytes());
+    e.extend((size as u32).to_le_bytes());
+    e.extend(offset.to_le_bytes());
+    e.extend(0u16.to_le_bytes());
+    e
 }
 
 /// Reads a 2D array of float32 or float64 values (N rows of `columns` values) as f64 rows.
