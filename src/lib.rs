@@ -116,6 +116,7 @@ pub mod pipeline;
 pub mod polygonize;
 pub mod rbf;
 pub mod render;
+pub mod sample;
 pub mod shader;
 pub mod shape;
 pub mod voxelize;

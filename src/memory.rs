@@ -63,6 +63,9 @@ const DISTANCE_PER_TRIANGLE: u64 = 550;
 /// written (measured: 140, `implicitize distance --closest` of 1,000,000 points on the
 /// triceratops, 167 MB at the peak against 27 MB for one point).
 const DISTANCE_PER_POINT: u64 = 192;
+/// Bytes per sample of [`crate::pipeline::sample`]: the point and its kind, its distance and
+/// side, its signed distance, its DeepSDF row and the arrays of the `.npz` in memory.
+const SAMPLE_PER_POINT: u64 = 160;
 /// Bytes per pixel of a picture: the colours, depth, normals and positions of the rays.
 const PER_PIXEL: u64 = 64;
 
@@ -112,6 +115,18 @@ impl Estimate {
                 .saturating_add((triangles as u64).saturating_mul(per_triangle))
                 .saturating_add((points as u64).saturating_mul(DISTANCE_PER_POINT)),
             what: format!("distances from {points} points to {triangles} triangles"),
+        }
+    }
+
+    /// `points` samples of the signed distance of a mesh of `triangles` triangles, written
+    /// as an `.npz` ([`crate::pipeline::sample`]).
+    pub fn sample(triangles: usize, points: usize) -> Estimate {
+        let per_triangle = PER_TRIANGLE + DISTANCE_PER_TRIANGLE;
+        Estimate {
+            bytes: BASE
+                .saturating_add((triangles as u64).saturating_mul(per_triangle))
+                .saturating_add((points as u64).saturating_mul(SAMPLE_PER_POINT)),
+            what: format!("{points} samples of a mesh of {triangles} triangles"),
         }
     }
 

@@ -7,6 +7,7 @@
 //! | fit a mesh and write what it made | [`MeshFitOptions`], [`FitOutputs`] | [`fit()`] ([`fit_mesh`], [`fit_file`]) |
 //! | a mesh's densities or signed distance on a grid | [`VolumeOptions`] | [`volume`] |
 //! | distances from points to a mesh, closest points | [`DistanceOptions`] | [`distance()`] |
+//! | points near a mesh and uniform around it, with their distances | [`SampleOptions`] | [`sample()`] |
 //! | polygonize a model's zero set | [`PolygonizeOptions`] | [`polygonize`] |
 //! | many meshes into one folder | [`crate::batch::BatchOptions`] | [`crate::batch::run`] |
 //!
@@ -46,6 +47,7 @@ use crate::mesh::{self, Mesh};
 use crate::mesh_distance::{self, MeshDistance, Nearest};
 use crate::model::Model;
 use crate::rbf::{Implicit, Isa};
+use crate::sample::Samples;
 use crate::voxelize::{self, Inside, VoxelizeOptions};
 
 /// How the constraints of a fit are made.
@@ -151,6 +153,69 @@ pub struct Distances {
     pub values: Vec<f64>,
     /// Each point's closest point of the surface, its triangle and barycentric coordinates.
     pub nearest: Vec<Nearest>,
+}
+
+/// What sampling a mesh's signed distance ([`sample()`]) needs besides the mesh and the number
+/// of points (see [`crate::sample`] for how the points are drawn). It serializes without the
+/// memory limit, as a batch records it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
+pub struct SampleOptions {
+    /// The standard deviations of the Gaussian noise that moves surface points off the surface,
+    /// as fractions of the diagonal of the mesh's bounding box; the near points are split
+    /// evenly among them (default 0.005 and 0.0005). Empty: every point uniform.
+    pub near_surface: Vec<f64>,
+    /// The fraction of the points uniform in the mesh's box padded by 10% of its size, in
+    /// [0, 1] (default 0.2).
+    pub uniform: f64,
+    /// The seed of the random choices (default: the fit's, 1).
+    pub seed: u64,
+    /// The memory the job may use.
+    #[serde(skip)]
+    pub memory_limit: MemoryLimit,
+}
+
+impl Default for SampleOptions {
+    fn default() -> Self {
+        SampleOptions {
+            near_surface: vec![0.005, 0.0005],
+            uniform: 0.2,
+            seed: FitOptions::default().seed,
+            memory_limit: MemoryLimit::default(),
+        }
+    }
+}
+
+impl SampleOptions {
+    /// Checks every setting: the standard deviations finite and positive, the uniform fraction
+    /// in [0, 1], and some near points' standard deviation unless every point is uniform.
+    ///
+    /// # Errors
+    /// The first setting out of its range, named.
+    pub fn check(&self) -> Result<()> {
+        if let Some(sigma) = self.near_surface.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            return Err(Error::invalid(
+                "options",
+                format!(
+                    "`near_surface` standard deviations must be finite and above 0, not {sigma}"
+                ),
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.uniform) {
+            return Err(Error::invalid(
+                "options",
+                format!("`uniform` must be a fraction in [0, 1], not {}", self.uniform),
+            ));
+        }
+        if self.near_surface.is_empty() && self.uniform < 1.0 {
+            return Err(Error::invalid(
+                "options",
+                "`near_surface` names no standard deviation for the points near the surface \
+                 (give one, or make `uniform` 1)",
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// What polygonizing a field ([`polygonize`]) needs besides the field.
@@ -404,6 +469,26 @@ pub fn distance(
         nearest.iter().map(|n| n.distance).collect()
     };
     Ok(Distances { values, nearest })
+}
+
+/// `n` points near `mesh`'s surface and uniform around it, with the exact signed distance at
+/// each (inside positive, mesh units), drawn as `options` say (see [`crate::sample`]).
+/// `source` names the mesh in errors.
+///
+/// # Errors
+/// An option out of range or `n` of 0; a mesh without triangles, with an index out of range
+/// or a non-finite coordinate, or without area to draw near points from; an estimate that does
+/// not fit in the memory limit.
+pub fn sample(mesh: &Mesh, source: &str, n: usize, options: &SampleOptions) -> Result<Samples> {
+    options.check()?;
+    if n == 0 {
+        return Err(Error::invalid("options", "`n`, the number of points, must be at least 1"));
+    }
+    Estimate::sample(mesh.triangles.len(), n)
+        .check(options.memory_limit.bytes(), || None)
+        .map_err(|e| e.in_context(source))?;
+    let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
+    crate::sample::sample(mesh, &query, source, n, options)
 }
 
 /// The zero set of `field` (inside positive) polygonized on the grid `options.resolution`

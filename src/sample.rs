@@ -1,0 +1,222 @@
+//! Samples of a mesh's signed distance for learning shapes, as DeepSDF (Park et al. 2019,
+//! "DeepSDF: Learning Continuous Signed Distance Functions for Shape Representation") makes
+//! them: points near the surface, drawn by displacing random points of the surface with
+//! Gaussian noise, and points uniform in a box around the mesh, each with the mesh's exact
+//! signed distance.
+//!
+//! # Conventions
+//! * **Counts:** of `n` points, `round(uniform * n)` are uniform and the rest near the surface,
+//!   split evenly among the standard deviations (when they do not divide evenly, the first ones
+//!   take one more each). [`Samples::points`] lists the near points of the first standard
+//!   deviation, then of the second..., then the uniform points.
+//! * **Near the surface:** a triangle chosen with probability proportional to its area, a point
+//!   uniform on it, plus isotropic Gaussian noise of standard deviation `sigma` times the
+//!   diagonal of the mesh's bounding box in each coordinate.
+//! * **Uniform:** in the mesh's bounding box grown on every side by 10% of its size along that
+//!   axis ([`PADDING`]).
+//! * **Distance:** exact, to the triangles ([`crate::mesh_distance`]), f64 in the mesh's units,
+//!   positive inside (where the generalized winding number is at least 1/2), as
+//!   [`MeshDistance::signed`] gives it.
+//! * **Deterministic:** the same mesh, `n` and options give the same samples bit for bit, on
+//!   any number of threads: each block of [`BLOCK`] points draws from its own ChaCha8 stream
+//!   of the seed.
+//! * **DeepSDF's layout** ([`Samples::deepsdf`]): float32 rows `x, y, z, sdf` with DeepSDF's
+//!   sign, negative inside; `pos` holds the rows whose DeepSDF value is above 0 (outside) and
+//!   `neg` the rest, as DeepSDF's `writeSDFToNPZ` splits them.
+//!
+//! DeepSDF's own preprocessing draws 47 of every 50 points near the surface of a mesh scaled
+//! into the unit sphere, with noise whose *variances* are 0.005 and 0.0005 (standard deviations
+//! 0.071 and 0.022 of the unit sphere's radius); here the defaults of
+//! [`crate::pipeline::SampleOptions`] are standard deviations, as fractions of the box's
+//! diagonal, and a fifth of the points uniform.
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::geometry::{Aabb, DVec3};
+use crate::mesh::Mesh;
+use crate::mesh_distance::{self, MeshDistance};
+use crate::pipeline::SampleOptions;
+
+/// The uniform points' box: the mesh's box grown on every side by this fraction of its size
+/// along each axis.
+pub const PADDING: f64 = 0.1;
+
+/// Points drawn from one random stream.
+pub const BLOCK: usize = 1 << 14;
+
+/// Points around a mesh and its signed distance at each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Samples {
+    /// The points, mesh units: the near points of each standard deviation in turn, then the
+    /// uniform points.
+    pub points: Vec<DVec3>,
+    /// The exact signed distance at each point, mesh units, positive inside.
+    pub sdf: Vec<f64>,
+    /// How many near points each standard deviation got, in the order of the options.
+    pub near: Vec<usize>,
+    /// How many points are uniform in the padded box (the last ones).
+    pub uniform: usize,
+}
+
+/// How many of `n` points go to each standard deviation of `near_surface` and how many are
+/// uniform (see the module doc).
+pub fn counts(n: usize, options: &SampleOptions) -> (Vec<usize>, usize) {
+    let uniform = ((n as f64 * options.uniform).round() as usize).min(n);
+    let near = n - uniform;
+    let k = options.near_surface.len();
+    if k == 0 {
+        return (Vec::new(), n);
+    }
+    let per = (0..k).map(|i| near / k + usize::from(i < near % k)).collect();
+    (per, uniform)
+}
+
+/// The uniform points' box around `bounds` (see [`PADDING`]).
+pub fn padded(bounds: &Aabb) -> Aabb {
+    let pad = (bounds.max - bounds.min) * PADDING;
+    Aabb { min: bounds.min - pad, max: bounds.max + pad }
+}
+
+/// Draws `n` samples of `mesh` as `options` say (checked by the caller) and measures them with
+/// `query`, the distance query of the same mesh.
+///
+/// # Errors
+/// Near points asked of a mesh whose triangles have no area; `source` names it.
+pub(crate) fn sample(
+    mesh: &Mesh,
+    query: &MeshDistance,
+    source: &str,
+    n: usize,
+    options: &SampleOptions,
+) -> Result<Samples> {
+    let bounds =
+        mesh.bounds().ok_or_else(|| Error::invalid(source, "the mesh has no triangles"))?;
+    let (near, uniform) = counts(n, options);
+    let surface = Surface::new(mesh, near.iter().sum(), source)?;
+    let diagonal = (bounds.max - bounds.min).length();
+    // Each point's kind: the standard deviation of its noise, or `None` for uniform.
+    let kinds: Vec<Option<f64>> = near
+        .iter()
+        .zip(&options.near_surface)
+        .flat_map(|(&count, &sigma)| std::iter::repeat_n(Some(sigma * diagonal), count))
+        .chain(std::iter::repeat_n(None, uniform))
+        .collect();
+    let room = padded(&bounds);
+    let points: Vec<DVec3> = kinds
+        .par_chunks(BLOCK)
+        .enumerate()
+        .flat_map_iter(|(block, kinds)| {
+            let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+            rng.set_stream(block as u64);
+            kinds
+                .iter()
+                .map(|kind| match kind {
+                    Some(sigma) => surface.point(&mut rng) + gaussian(&mut rng) * *sigma,
+                    None => uniform_in(&room, &mut rng),
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    let distances: Vec<f64> = points.par_iter().map(|&p| query.nearest(p).distance).collect();
+    let inside = query.inside(&points);
+    let sdf = distances.iter().zip(inside).map(|(&d, i)| mesh_distance::signed(d, i)).collect();
+    Ok(Samples { points, sdf, near, uniform })
+}
+
+/// The surface to draw points on: the triangles' corners and their cumulative areas.
+struct Surface {
+    corners: Vec<[DVec3; 3]>,
+    cumulative: Vec<f64>,
+}
+
+impl Surface {
+    /// The surface of `mesh`, from which `near` points will be drawn (none: no surface is
+    /// needed, and a mesh without area is fine).
+    fn new(mesh: &Mesh, near: usize, source: &str) -> Result<Surface> {
+        if near == 0 {
+            return Ok(Surface { corners: Vec::new(), cumulative: Vec::new() });
+        }
+        let corners: Vec<[DVec3; 3]> =
+            mesh.triangles.iter().map(|t| t.map(|i| mesh.vertices[i as usize])).collect();
+        let mut total = 0.0;
+        let cumulative = corners
+            .iter()
+            .map(|&[a, b, c]| {
+                total += (b - a).cross(c - a).length() / 2.0;
+                total
+            })
+            .collect();
+        if !(total > 0.0) {
+            return Err(Error::invalid(
+                source,
+                "the triangles have no area to draw points near the surface from",
+            ));
+        }
+        Ok(Surface { corners, cumulative })
+    }
+
+    /// A point uniform on the surface: a triangle chosen by area, a point uniform on it.
+    fn point(&self, rng: &mut ChaCha8Rng) -> DVec3 {
+        let total = *self.cumulative.last().expect("a surface with area has triangles");
+        let r = rng.random::<f64>() * total;
+        let t = self.cumulative.partition_point(|&c| c <= r).min(self.corners.len() - 1);
+        let [a, b, c] = self.corners[t];
+        let s = rng.random::<f64>().sqrt();
+        let v = rng.random::<f64>();
+        a * (1.0 - s) + b * (s * (1.0 - v)) + c * (s * v)
+    }
+}
+
+/// A point uniform in `room`.
+fn uniform_in(room: &Aabb, rng: &mut ChaCha8Rng) -> DVec3 {
+    let u = DVec3::new(rng.random(), rng.random(), rng.random());
+    room.min + (room.max - room.min) * u
+}
+
+/// Three independent standard normal values (Box-Muller).
+fn gaussian(rng: &mut ChaCha8Rng) -> DVec3 {
+    let mut pair = || {
+        // In (0, 1], so the logarithm is finite.
+        let radius = (-2.0 * (1.0 - rng.random::<f64>()).ln()).sqrt();
+        let angle = std::f64::consts::TAU * rng.random::<f64>();
+        (radius * angle.cos(), radius * angle.sin())
+    };
+    let (x, y) = pair();
+    let (z, _) = pair();
+    DVec3::new(x, y, z)
+}
+
+impl Samples {
+    /// DeepSDF's layout (see the module doc): the `pos` and `neg` rows `x, y, z, sdf`, float32,
+    /// with DeepSDF's sign (negative inside).
+    pub fn deepsdf(&self) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+        let rows = self.points.iter().zip(&self.sdf).map(|(p, &s)| {
+            let deepsdf = -s as f32;
+            [p.x as f32, p.y as f32, p.z as f32, deepsdf]
+        });
+        rows.partition(|row| row[3] > 0.0)
+    }
+
+    /// Writes the samples as a NumPy `.npz` archive, atomically: `points` (N x 3 float64),
+    /// `sdf` (N float64, mesh units, inside positive), and DeepSDF's `pos` and `neg`
+    /// ([`Samples::deepsdf`]).
+    ///
+    /// # Errors
+    /// The file cannot be written, or an array passes 4 GB (the archive is not ZIP64).
+    pub fn save_npz(&self, path: &std::path::Path) -> Result<()> {
+        let n = self.points.len() as u64;
+        let flat: Vec<f64> = self.points.iter().flat_map(|p| p.to_array()).collect();
+        let (pos, neg) = self.deepsdf();
+        let rows = |r: &[[f32; 4]]| r.iter().flatten().copied().collect::<Vec<f32>>();
+        let arrays = [
+            ("points", crate::npy::to_bytes(&[n, 3], &flat)),
+            ("sdf", crate::npy::to_bytes(&[n], &self.sdf)),
+            ("pos", crate::npy::to_bytes(&[pos.len() as u64, 4], &rows(&pos))),
+            ("neg", crate::npy::to_bytes(&[neg.len() as u64, 4], &rows(&neg))),
+        ];
+        crate::npy::write_npz(path, &arrays)
+    }
+}
