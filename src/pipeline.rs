@@ -482,7 +482,7 @@ pub fn distance(
 pub fn sample(mesh: &Mesh, source: &str, n: usize, options: &SampleOptions) -> Result<Samples> {
     options.check()?;
     if n == 0 {
-        return Err(Error::invalid("options", "`n`, the number of points, must be at least 1"));
+        return Err(Error::invalid("options", "the number of points must be at least 1, not 0"));
     }
     Estimate::sample(mesh.triangles.len(), n)
         .check(options.memory_limit.bytes(), || None)

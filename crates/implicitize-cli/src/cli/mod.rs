@@ -20,6 +20,7 @@ mod fit2d;
 mod morph;
 mod polygonize;
 mod render;
+mod sample;
 mod solve;
 mod view;
 mod volume;
@@ -61,6 +62,9 @@ enum Command {
     Eval(eval::EvalArgs),
     /// The exact distance from points to a mesh, inside positive, and the closest points.
     Distance(distance::DistanceArgs),
+    /// Points near a mesh's surface and uniform around it with their exact signed distances
+    /// (inside positive), and DeepSDF's layout, in an .npz.
+    Sample(sample::SampleArgs),
     /// Draw a model or a mesh to a PNG, or the two side by side (paper figures 1, 3-5).
     Render(render::RenderCommand),
     /// Combine two models: union, intersection or difference, sharp or blended (paper 1).
@@ -113,6 +117,7 @@ fn dispatch(command: &Command, progress: common::Progress) -> anyhow::Result<()>
         Command::Solve(args) => solve::run(args, progress),
         Command::Eval(args) => eval::run(args, progress),
         Command::Distance(args) => distance::run(args, progress),
+        Command::Sample(args) => sample::run(args, progress),
         Command::Render(args) => render::run(args, progress),
         Command::Csg(args) => csg::run(args, progress),
         Command::Morph(args) => morph::run(args, progress),
