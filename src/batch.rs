@@ -12,7 +12,8 @@
 //! # Files
 //! For a mesh named `NAME` (its file's stem; `NAME-2`, `NAME-3`... for later meshes of the
 //! same stem): `NAME.json` (the model, the file `implicitize fit -o` writes), `NAME.report.json`,
-//! with `sdf` also `NAME.sdf.npy` and `NAME.sdf.json` (as `implicitize sdf`), and last
+//! with `sdf` also `NAME.sdf.npy` and `NAME.sdf.json` (as `implicitize sdf`), with `samples`
+//! also `NAME.samples.npz` (as `implicitize sample`), and last
 //! `NAME.entry.json`, the mesh's manifest line, which marks its outputs complete.
 //!
 //! # Resuming
@@ -22,7 +23,7 @@
 //! content hash (BLAKE3), the options that decide the outputs and the library's version. A
 //! rerun reuses a mesh's outputs only when its stored entry says `ok`, its outputs are all
 //! there and its origin is the current one: another resolution, seed or target, a changed or
-//! touched mesh, or another version of the library refits it (the number of concurrent jobs
+//! touched mesh, another number of samples, or another version of the library refits it (the number of concurrent jobs
 //! and the memory limit decide no output and are not recorded). Failed meshes are tried
 //! again. The manifest is rewritten at the end of every run.
 
@@ -34,7 +35,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, FrontEnd, Result};
-use crate::pipeline::{self, FitOutputs, Fitted, MeshFitOptions, MeshSource};
+use crate::pipeline::{self, FitOutputs, Fitted, MeshFitOptions, MeshSource, SampleOptions};
 
 /// The extensions of the mesh files a folder is searched for (any case).
 pub const MESH_EXTENSIONS: [&str; 4] = ["obj", "ply", "stl", "off"];
@@ -51,6 +52,11 @@ pub struct BatchOptions {
     pub fit: MeshFitOptions,
     /// Also write the signed distance volume of the fit's grid.
     pub sdf: bool,
+    /// Also write this many samples of the mesh's exact signed distance, drawn as
+    /// [`SampleOptions`]' defaults say with the fit's seed (absent from the stored options when
+    /// `None`, so that runs without samples keep the origins they had).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub samples: Option<usize>,
     /// Whose user reads the manifest's errors, and so how they name settings.
     #[serde(skip)]
     pub wording: FrontEnd,
@@ -231,22 +237,25 @@ fn as_stored(options: &BatchOptions) -> serde_json::Value {
     serde_json::from_str(&text).expect("JSON just written always reads")
 }
 
-/// The output files of `job` in `out`: model, report, entry, and the volume's two files.
+/// The output files of `job` in `out`: model, report, entry, the volume's two files and the
+/// samples.
 struct Outputs {
     files: FitOutputs,
+    samples: Option<PathBuf>,
     entry: PathBuf,
 }
 
 impl Outputs {
-    fn of(job: &Job, out: &Path, sdf: bool) -> Outputs {
+    fn of(job: &Job, out: &Path, options: &BatchOptions) -> Outputs {
         let file = |suffix: &str| out.join(format!("{}{suffix}", job.name));
         let files = FitOutputs {
             model: Some(file(".json")),
             report: Some(file(".report.json")),
-            sdf: sdf.then(|| file(".sdf.npy")),
+            sdf: options.sdf.then(|| file(".sdf.npy")),
             ..FitOutputs::default()
         };
-        Outputs { files, entry: file(".entry.json") }
+        let samples = options.samples.map(|_| file(".samples.npz"));
+        Outputs { files, samples, entry: file(".entry.json") }
     }
 
     /// The stored entry, when it says `ok`, every output it stands for is there and it was
@@ -254,7 +263,8 @@ impl Outputs {
     fn complete(&self, origin: &Origin) -> Option<Entry> {
         let entry: Entry = serde_json::from_slice(&std::fs::read(&self.entry).ok()?).ok()?;
         let sdf_grid = self.files.sdf.as_ref().map(|p| p.with_extension("json"));
-        let files = [&self.files.model, &self.files.report, &self.files.sdf, &sdf_grid];
+        let files =
+            [&self.files.model, &self.files.report, &self.files.sdf, &sdf_grid, &self.samples];
         let there = files.into_iter().flatten().all(|p| p.is_file());
         let same = entry.origin.as_ref() == Some(origin);
         (entry.status == Status::Ok && there && same).then_some(Entry { reused: true, ..entry })
@@ -271,17 +281,14 @@ pub fn convert(job: &Job, out: &Path, options: &BatchOptions) -> Entry {
         Ok(origin) => origin,
         Err(e) => return failed_entry(job, e.worded(options.wording), None, 0.0),
     };
-    let outputs = Outputs::of(job, out, options.sdf);
+    let outputs = Outputs::of(job, out, options);
     if let Some(done) = outputs.complete(&origin) {
         return done;
     }
-    let result = std::panic::catch_unwind(|| {
-        let source = MeshSource::File(&job.input);
-        pipeline::fit(source, &options.fit, &outputs.files, &mut ())
-    })
-    .unwrap_or_else(|panic| {
-        Err(Error::invalid(job.input.display().to_string(), panic_message(&panic)))
-    });
+    let result =
+        std::panic::catch_unwind(|| make(job, &outputs, options)).unwrap_or_else(|panic| {
+            Err(Error::invalid(job.input.display().to_string(), panic_message(&panic)))
+        });
     let seconds = clock.elapsed().as_secs_f64();
     let mut entry = match result {
         Ok(fitted) => ok_entry(job, &fitted, origin, seconds),
@@ -294,6 +301,24 @@ pub fn convert(job: &Job, out: &Path, options: &BatchOptions) -> Entry {
         }
     }
     entry
+}
+
+/// Fits the mesh of `job` and writes its outputs: the fit's files, then its samples.
+fn make(job: &Job, outputs: &Outputs, options: &BatchOptions) -> Result<Fitted> {
+    let (Some(n), Some(path)) = (options.samples, &outputs.samples) else {
+        return pipeline::fit(MeshSource::File(&job.input), &options.fit, &outputs.files, &mut ());
+    };
+    crate::output::check_destination(path)?;
+    let (mesh, _) = crate::mesh::read(&job.input)?;
+    let name = job.input.display().to_string();
+    let bytes = std::fs::metadata(&job.input).ok().map(|m| m.len());
+    let source = MeshSource::Mesh { mesh: &mesh, name: &name, bytes };
+    let fitted = pipeline::fit(source, &options.fit, &outputs.files, &mut ())?;
+    let mut sampling = SampleOptions::default();
+    sampling.seed = options.fit.fit.seed;
+    sampling.memory_limit = options.fit.memory_limit;
+    pipeline::sample(&mesh, &name, n, &sampling)?.save_npz(path)?;
+    Ok(fitted)
 }
 
 /// What a caught panic said.
@@ -411,6 +436,10 @@ mod tests {
         let mut finer = options.clone();
         finer.fit.resolution = crate::Resolution::LongestAxis(300);
         assert_ne!(Origin::of(&mesh, &finer).unwrap().options, first.options);
+        assert!(first.options.get("samples").is_none(), "no samples, no entry: older origins hold");
+        let mut sampled = options.clone();
+        sampled.samples = Some(1000);
+        assert_eq!(Origin::of(&mesh, &sampled).unwrap().options["samples"], 1000);
         let mut other_limit = options.clone();
         other_limit.fit.memory_limit = crate::memory::MemoryLimit::Bytes(1 << 30);
         assert_eq!(Origin::of(&mesh, &other_limit).unwrap(), first, "the limit decides nothing");

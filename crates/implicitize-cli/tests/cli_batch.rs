@@ -178,3 +178,44 @@ fn a_rerun_refits_what_another_resolution_or_a_touched_mesh_changes_and_reuses_t
         .collect();
     assert_eq!(refitted, ["b"]);
 }
+
+/// The points of a batch's `NAME.samples.npz`: the rows of its `points.npy`, found by the
+/// `.npy` magic after the entry's name.
+fn sample_count(npz: &Path) -> u64 {
+    let bytes = std::fs::read(npz).unwrap();
+    let start = bytes.windows(10).position(|w| w == b"points.npy").unwrap() + 10;
+    let npy = npyz::NpyFile::new(&bytes[start..]).unwrap();
+    npy.shape()[0]
+}
+
+/// Runs a batch of `lib` into `out` with `extra` options; the summary's count of reused meshes.
+fn batch_with(lib: &Path, out: &Path, extra: &[&str]) -> usize {
+    let args = [p("batch"), lib, p("-o"), out, p("--resolution"), p("32"), p("--jobs"), p("1")];
+    let extra: Vec<&Path> = extra.iter().map(|e| p(e)).collect();
+    let o = run(&[&args[..], &extra].concat());
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{stderr}");
+    let summary = stderr.lines().find(|l| l.contains("meshes converted")).expect(&stderr);
+    summary.split('(').nth(1).and_then(|t| t.split(' ').next()).unwrap().parse().unwrap()
+}
+
+#[test]
+fn samples_are_written_beside_the_model_and_another_count_redoes_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let lib = dir.path().join("lib");
+    std::fs::create_dir(&lib).unwrap();
+    std::fs::copy(triceratops(), lib.join("t.obj")).unwrap();
+    let out = dir.path().join("out");
+    assert_eq!(batch_with(&lib, &out, &["--samples", "500"]), 0);
+    assert_eq!(sample_count(&out.join("t.samples.npz")), 500);
+    assert_eq!(manifest(&out)[0]["origin"]["options"]["samples"], 500);
+    assert_eq!(batch_with(&lib, &out, &["--samples", "500"]), 1, "the same count is reused");
+    assert_eq!(batch_with(&lib, &out, &["--samples", "700"]), 0, "another count is redone");
+    assert_eq!(sample_count(&out.join("t.samples.npz")), 700);
+    std::fs::remove_file(out.join("t.samples.npz")).unwrap();
+    assert_eq!(batch_with(&lib, &out, &["--samples", "700"]), 0, "a missing file is redone");
+    assert_eq!(sample_count(&out.join("t.samples.npz")), 700);
+    let o = run(&[p("batch"), &lib, p("-o"), &out, p("--samples"), p("0")]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--samples 0"));
+}

@@ -18,8 +18,8 @@ pub struct BatchCommand {
     /// path a line, relative to the list's folder).
     #[arg(required = true, value_name = "INPUTS")]
     pub inputs: Vec<String>,
-    /// The output folder: NAME.json, NAME.report.json (and NAME.sdf.npy) per mesh, and
-    /// manifest.jsonl.
+    /// The output folder: NAME.json, NAME.report.json (and NAME.sdf.npy, NAME.samples.npz) per
+    /// mesh, and manifest.jsonl.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Meshes converted at once [default: the number of CPUs].
@@ -28,6 +28,10 @@ pub struct BatchCommand {
     /// Also write each mesh's signed distance volume (as `implicitize sdf`) on the fit's grid.
     #[arg(long)]
     pub sdf: bool,
+    /// Also write N samples of each mesh's exact signed distance (as `implicitize sample` with
+    /// its defaults and the fit's --seed) to NAME.samples.npz.
+    #[arg(long, value_name = "N")]
+    pub samples: Option<usize>,
     #[command(flatten)]
     pub fit: FitArgs,
 }
@@ -44,9 +48,13 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
+    if args.samples == Some(0) {
+        anyhow::bail!("--samples 0: give at least one point, or leave --samples out");
+    }
     let mut options = BatchOptions::default();
     options.fit = args.fit.options();
     options.sdf = args.sdf;
+    options.samples = args.samples;
     let bar = progress_bar(jobs.len() as u64, progress);
     let entries = batch::run(&jobs, &args.output, &options, threads, |entry| {
         report(entry, &bar, progress);
