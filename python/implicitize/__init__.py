@@ -28,8 +28,10 @@ import numpy as _np
 from ._implicitize import Model
 from ._implicitize import csg as _csg
 from ._implicitize import defaults as _defaults
+from ._implicitize import distance as _distance
 from ._implicitize import fit as _fit
 from ._implicitize import load as _load
+from ._implicitize import sample as _sample
 from ._implicitize import volume as _volume
 
 __all__ = [
@@ -38,6 +40,8 @@ __all__ = [
     "Volume",
     "voxelize",
     "signed_distance",
+    "distance",
+    "sample",
     "fit",
     "load",
     "union",
@@ -46,7 +50,8 @@ __all__ = [
 ]
 
 #: The library's defaults of the keywords left at ``None`` (``resolution``, ``target_error``,
-#: ``seed``, ``max_iterations``, ``max_constraints``, ``naive_max_constraints``, ``method``).
+#: ``seed``, ``max_iterations``, ``max_constraints``, ``naive_max_constraints``, ``method``,
+#: ``near_surface``, ``uniform``).
 DEFAULTS = dict(_defaults())
 
 _Memory = Union[int, str, None]
@@ -147,6 +152,58 @@ def signed_distance(
         memory_limit=memory_limit,
     )
     return Volume(values, origin, voxel_size)
+
+
+def distance(
+    mesh: Any,
+    points: Any,
+    signed: bool = True,
+    closest: bool = False,
+    *,
+    memory_limit: _Memory = None,
+) -> Union[_np.ndarray, Tuple[_np.ndarray, _np.ndarray]]:
+    """Exact distances from ``points`` (N x 3) to the mesh's triangles, as ``implicitize distance``.
+
+    float64, mesh units; signed by the generalized winding number, positive inside, unless
+    ``signed`` is false. With ``closest``, a tuple: the distances and each point's closest point
+    of the surface (N x 3). ``memory_limit`` as in :func:`voxelize`. The GIL is released while
+    measuring.
+    """
+    values, nearest = _distance(
+        _mesh_arg(mesh), points, bool(signed), bool(closest), memory_limit=memory_limit
+    )
+    return (values, nearest) if closest else values
+
+
+@_documented
+def sample(
+    mesh: Any,
+    n: int,
+    near_surface: Optional[Sequence[float]] = None,
+    uniform: Optional[float] = None,
+    seed: Optional[int] = None,
+    *,
+    memory_limit: _Memory = None,
+) -> dict:
+    """``n`` samples of the mesh's exact signed distance, as ``implicitize sample``.
+
+    Surface points (by area) moved by Gaussian noise of each standard deviation in
+    ``near_surface`` (fractions of the bounding box's diagonal, default {near_surface}), and a
+    fraction ``uniform`` (default {uniform}) uniform in the box padded by 10% of its size;
+    ``seed`` (default {seed}) decides them all. A dict of numpy arrays, as the ``.npz`` holds
+    them: ``points`` (n x 3 float64), ``sdf`` (n float64, mesh units, positive inside), and
+    DeepSDF's ``pos`` and ``neg`` (rows x, y, z, sdf as float32, negative inside; ``pos``
+    outside). ``memory_limit`` as in :func:`voxelize`. The GIL is released while sampling.
+    """
+    points, sdf, pos, neg = _sample(
+        _mesh_arg(mesh),
+        int(n),
+        near_surface=None if near_surface is None else [float(s) for s in near_surface],
+        uniform=None if uniform is None else float(uniform),
+        seed=None if seed is None else int(seed),
+        memory_limit=memory_limit,
+    )
+    return {"points": points, "sdf": sdf, "pos": pos, "neg": neg}
 
 
 @_documented

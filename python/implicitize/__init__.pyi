@@ -1,7 +1,7 @@
 """Type stubs of implicitize: see the docstrings in __init__.py and the extension module."""
 
 import os
-from typing import Any, Optional, Sequence, Tuple, Union
+from typing import Any, Literal, Optional, Sequence, Tuple, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -82,6 +82,41 @@ def signed_distance(
 ) -> Volume:
     """The signed distance in voxels, inside positive, as ``implicitize sdf``; None is
     DEFAULTS' value, MemoryError beyond ``memory_limit``."""
+
+@overload
+def distance(
+    mesh: Any,
+    points: _Points,
+    signed: bool = True,
+    closest: Literal[False] = False,
+    *,
+    memory_limit: _Memory = None,
+) -> npt.NDArray[np.float64]:
+    """Exact distances to the mesh, mesh units, signed (inside positive) unless ``signed`` is
+    false, as ``implicitize distance``; MemoryError beyond ``memory_limit``."""
+
+@overload
+def distance(
+    mesh: Any,
+    points: _Points,
+    signed: bool = True,
+    *,
+    closest: Literal[True],
+    memory_limit: _Memory = None,
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The distances and each point's closest point of the surface (N x 3)."""
+
+def sample(
+    mesh: Any,
+    n: int,
+    near_surface: Optional[Sequence[float]] = None,
+    uniform: Optional[float] = None,
+    seed: Optional[int] = None,
+    *,
+    memory_limit: _Memory = None,
+) -> dict[str, npt.NDArray[Any]]:
+    """``points``, ``sdf`` (inside positive) and DeepSDF's ``pos`` and ``neg``, as
+    ``implicitize sample``; None is DEFAULTS' value, MemoryError beyond ``memory_limit``."""
 
 def fit(
     mesh: Any,

@@ -44,6 +44,12 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--scheduler", help="a Dask scheduler's address (default: a LocalCluster)")
     parser.add_argument("--workers", type=int, help="LocalCluster worker processes (default: CPUs)")
     parser.add_argument("--sdf", action="store_true", help="also write signed distance volumes")
+    parser.add_argument(
+        "--samples",
+        type=int,
+        metavar="N",
+        help="also write N samples of each mesh's exact signed distance (NAME.samples.npz)",
+    )
     parser.add_argument("--quiet", "-q", action="store_true", help="print no progress")
     grid = parser.add_mutually_exclusive_group()
     grid.add_argument(
@@ -89,6 +95,7 @@ def _options(args: argparse.Namespace) -> Dict[str, Any]:
         "subvoxel": args.subvoxel,
         "full_resolution": args.full_resolution,
         "sdf": args.sdf,
+        "samples": args.samples,
         "memory_limit": args.memory_limit,
     }
 

@@ -21,12 +21,14 @@ pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
 
 /// Converts one mesh into `out_dir` (or takes its complete outputs from an earlier run) and
 /// returns its manifest line (JSON). Never raises for a bad mesh: its line says `failed`.
-/// The options are `fit`'s (every `None` the library's default); a bad option raises
+/// The options are `fit`'s (every `None` the library's default), `sdf` and `samples` (the
+/// number of samples of the mesh's signed distance to write, if any); a bad option raises
 /// `ValueError`. `memory_limit` is this mesh's. The GIL is released meanwhile.
 #[pyfunction]
 #[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=None,
                     seed=None, max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, sdf=false, memory_limit=None))]
+                    subvoxel=false, full_resolution=false, sdf=false, samples=None,
+                    memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn batch_convert(
     py: Python<'_>,
@@ -43,8 +45,17 @@ pub fn batch_convert(
     subvoxel: bool,
     full_resolution: bool,
     sdf: bool,
+    samples: Option<i64>,
     memory_limit: Option<MemoryArg>,
 ) -> PyResult<String> {
+    let samples = samples
+        .map(|n| {
+            usize::try_from(n)
+                .ok()
+                .filter(|&n| n > 0)
+                .ok_or_else(|| invalid(format!("samples must be a positive count, not {n}")))
+        })
+        .transpose()?;
     let fit = FitArgs {
         resolution,
         dims,
@@ -61,6 +72,7 @@ pub fn batch_convert(
     let mut options = BatchOptions::default();
     options.fit = fit;
     options.sdf = sdf;
+    options.samples = samples;
     options.wording = implicitize::error::FrontEnd::Python;
     let job = Job { input, name };
     let entry = py.detach(|| {

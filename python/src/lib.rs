@@ -4,11 +4,12 @@
 //!
 //! Every input is checked here before it reaches the library, so no input panics; errors are
 //! `ValueError` (bad input) or `OSError` (a file), with the command-line tool's messages. The
-//! heavy work (reading meshes, voxelizing, fitting, evaluating, polygonizing, rendering) runs
-//! with the GIL released, so Python threads run it in parallel.
+//! heavy work (reading meshes, voxelizing, measuring distances, sampling, fitting, evaluating,
+//! polygonizing, rendering) runs with the GIL released, so Python threads run it in parallel.
 
 use implicitize::Resolution;
 use implicitize::fit::{FitOptions, MAX_CONSTRAINTS, naive};
+use implicitize::pipeline::SampleOptions;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -16,6 +17,7 @@ mod batch;
 mod errors;
 mod inputs;
 mod model;
+mod sample;
 mod volume;
 
 /// The module's functions and classes.
@@ -23,6 +25,8 @@ mod volume;
 fn _implicitize(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<model::PyModel>()?;
     m.add_function(wrap_pyfunction!(volume::volume, m)?)?;
+    m.add_function(wrap_pyfunction!(sample::distance, m)?)?;
+    m.add_function(wrap_pyfunction!(sample::sample, m)?)?;
     m.add_function(wrap_pyfunction!(model::fit, m)?)?;
     m.add_function(wrap_pyfunction!(model::load, m)?)?;
     m.add_function(wrap_pyfunction!(model::csg, m)?)?;
@@ -49,6 +53,9 @@ fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     defaults.set_item("max_constraints", MAX_CONSTRAINTS)?;
     defaults.set_item("naive_max_constraints", naive::DEFAULT_CONSTRAINTS)?;
     defaults.set_item("method", "iterative")?;
+    let sample = SampleOptions::default();
+    defaults.set_item("near_surface", sample.near_surface)?;
+    defaults.set_item("uniform", sample.uniform)?;
     Ok(defaults)
 }
 
