@@ -314,9 +314,11 @@ fn make(job: &Job, outputs: &Outputs, options: &BatchOptions) -> Result<Fitted> 
     let bytes = std::fs::metadata(&job.input).ok().map(|m| m.len());
     let source = MeshSource::Mesh { mesh: &mesh, name: &name, bytes };
     let fitted = pipeline::fit(source, &options.fit, &outputs.files, &mut ())?;
-    let mut sampling = SampleOptions::default();
-    sampling.seed = options.fit.fit.seed;
-    sampling.memory_limit = options.fit.memory_limit;
+    let sampling = SampleOptions {
+        seed: options.fit.fit.seed,
+        memory_limit: options.fit.memory_limit,
+        ..SampleOptions::default()
+    };
     pipeline::sample(&mesh, &name, n, &sampling)?.save_npz(path)?;
     Ok(fitted)
 }

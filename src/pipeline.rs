@@ -156,9 +156,8 @@ pub struct Distances {
 }
 
 /// What sampling a mesh's signed distance ([`sample()`]) needs besides the mesh and the number
-/// of points (see [`crate::sample`] for how the points are drawn). It serializes without the
-/// memory limit, as a batch records it.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// of points (see [`crate::sample`] for how the points are drawn).
+#[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub struct SampleOptions {
     /// The standard deviations of the Gaussian noise that moves surface points off the surface,
@@ -171,7 +170,6 @@ pub struct SampleOptions {
     /// The seed of the random choices (default: the fit's, 1).
     pub seed: u64,
     /// The memory the job may use.
-    #[serde(skip)]
     pub memory_limit: MemoryLimit,
 }
 

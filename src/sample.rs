@@ -81,7 +81,8 @@ pub fn padded(bounds: &Aabb) -> Aabb {
 }
 
 /// Draws `n` samples of `mesh` as `options` say (checked by the caller) and measures them with
-/// `query`, the distance query of the same mesh.
+/// `query`, the distance query of the same mesh (whose building checked its indices and
+/// coordinates).
 ///
 /// # Errors
 /// Near points asked of a mesh whose triangles have no area; `source` names it.
@@ -149,7 +150,7 @@ impl Surface {
                 total
             })
             .collect();
-        if !(total > 0.0) {
+        if total.is_nan() || total <= 0.0 {
             return Err(Error::invalid(
                 source,
                 "the triangles have no area to draw points near the surface from",

@@ -30,6 +30,7 @@ const PUBLIC_MODULES: &[&str] = &[
     "polygonize",
     "rbf",
     "render",
+    "sample",
     "shader",
     "shape",
     "voxelize",
