@@ -40,3 +40,23 @@ impl Aabb {
         self.size().length()
     }
 }
+
+/// Bits of each coordinate in a [`morton_key`]: three coordinates fill 63 bits.
+pub(crate) const MORTON_BITS: u32 = 21;
+
+/// The Morton (Z-order) key of a cell's integer coordinates, each below `2^MORTON_BITS`: their
+/// bits interleaved, so that cells sorted by key follow a space-filling curve on which
+/// neighbours are mostly neighbours in space.
+pub(crate) fn morton_key([x, y, z]: [u64; 3]) -> u64 {
+    (spread(x) << 2) | (spread(y) << 1) | spread(z)
+}
+
+/// The low 21 bits of `v`, two zero bits after each.
+fn spread(v: u64) -> u64 {
+    let mut x = v & 0x1f_ffff;
+    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
+    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
+    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
+    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
+    (x | (x << 2)) & 0x1249_2492_4924_9249
+}

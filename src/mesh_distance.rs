@@ -17,10 +17,12 @@
 //!   segments or point they are, so they never give a wrong or non-finite distance.
 //! * **Sign** ([`MeshDistance::signed`]): positive inside, negative outside, in the mesh's
 //!   units, like every value of this crate. Inside is where the generalized winding number
-//!   (Jacobson et al. 2013, evaluated as the voxelizer does) is at least 1/2: for a closed,
-//!   consistently oriented mesh the true inside; it agrees with the voxelization's
-//!   inside/outside decision wherever the voxelizer's rays agree, and elsewhere (holes,
-//!   open meshes) closes the mesh like a soap film over its holes.
+//!   (Jacobson et al. 2013, evaluated as the voxelizer does) is at least 1/2, over the
+//!   triangles re-oriented as the voxelizer re-orients them (consistently across shared edges,
+//!   outward: [`crate::voxelize`]), so a flipped or partly flipped mesh has the same inside as
+//!   the original. For a closed mesh that is the true inside; it agrees with the
+//!   voxelization's inside/outside decision wherever the voxelizer's rays agree, and elsewhere
+//!   (holes, open meshes) closes the mesh like a soap film over its holes.
 //! * **Errors:** a mesh with no triangles, an index out of range or a non-finite coordinate is
 //!   refused with an [`Error`] naming the problem; no input panics.
 //!
@@ -46,9 +48,11 @@ use std::cmp::Ordering;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::geometry::DVec3;
+use crate::geometry::{Aabb, DVec3, MORTON_BITS, morton_key};
 use crate::mesh::Mesh;
+use crate::voxelize::orient::orient;
 use crate::voxelize::winding::Winding;
+use glam::Vec3;
 
 /// Most triangles in a leaf of the hierarchy.
 pub const LEAF: usize = 4;
@@ -77,11 +81,14 @@ pub struct Nearest {
     pub barycentric: [f64; 3],
 }
 
-/// A node of the hierarchy: its box and either its triangles (a leaf) or its children.
+/// A node of the hierarchy: its box and either its triangles (a leaf) or its children. The box
+/// is stored in f32, rounded outward so that it still holds every triangle under it: the
+/// distance to it stays a lower bound of the distance to them, and a node takes 32 bytes,
+/// two to a cache line.
 #[derive(Debug, Clone, Copy)]
 struct Node {
-    min: DVec3,
-    max: DVec3,
+    min: Vec3,
+    max: Vec3,
     /// A leaf's first triangle in `MeshDistance::triangles`, or an inner node's first child
     /// (the second follows it).
     first: u32,
@@ -90,10 +97,28 @@ struct Node {
 }
 
 impl Node {
+    /// A node with the box from `min` to `max`, rounded outward to f32.
+    fn new(min: DVec3, max: DVec3) -> Node {
+        let down = |v: f64| {
+            let r = v as f32;
+            if f64::from(r) > v { r.next_down() } else { r }
+        };
+        let up = |v: f64| {
+            let r = v as f32;
+            if f64::from(r) < v { r.next_up() } else { r }
+        };
+        Node {
+            min: Vec3::from_array(min.to_array().map(down)),
+            max: Vec3::from_array(max.to_array().map(up)),
+            first: 0,
+            count: 0,
+        }
+    }
+
     /// The squared distance from `p` to the node's box (0 inside it).
     #[inline]
     fn distance_squared(&self, p: DVec3) -> f64 {
-        let outside = (self.min - p).max(p - self.max).max(DVec3::ZERO);
+        let outside = (self.min.as_dvec3() - p).max(p - self.max.as_dvec3()).max(DVec3::ZERO);
         outside.length_squared()
     }
 }
@@ -106,6 +131,9 @@ pub struct MeshDistance {
     triangles: Vec<[DVec3; 3]>,
     /// The index in the mesh of each of `triangles`.
     indices: Vec<u32>,
+    /// Whether each of `triangles` faces against the orientation the voxelizer gives the mesh
+    /// (consistent across edges, outward: see [`crate::voxelize`]), for the winding number.
+    flipped: Vec<bool>,
 }
 
 impl MeshDistance {
@@ -147,15 +175,18 @@ impl MeshDistance {
             }
             triangles.push(points);
         }
-        Ok(MeshDistance::build(triangles))
+        let oriented = orient(&mesh.vertices, &mesh.triangles).triangles;
+        let flipped = oriented.iter().zip(&mesh.triangles).map(|(o, t)| o != t).collect();
+        Ok(MeshDistance::build(triangles, flipped))
     }
 
     /// The hierarchy over `triangles` (at least one), built breadth-first from a work list.
-    fn build(triangles: Vec<[DVec3; 3]>) -> MeshDistance {
+    /// `flipped` says which triangles the winding number takes the other way round.
+    fn build(triangles: Vec<[DVec3; 3]>, flipped: Vec<bool>) -> MeshDistance {
         let mut order: Vec<(DVec3, u32)> =
             triangles.iter().map(|&[a, b, c]| (a + b + c) / 3.0).zip(0..).collect();
         let mut nodes = Vec::with_capacity(4 * triangles.len() / LEAF + 1);
-        nodes.push(Node { min: DVec3::ZERO, max: DVec3::ZERO, first: 0, count: 0 });
+        nodes.push(Node::new(DVec3::ZERO, DVec3::ZERO));
         // (node, range of `order`) still to fill in.
         let mut work = vec![(0usize, 0usize, order.len())];
         while let Some((n, start, end)) = work.pop() {
@@ -169,7 +200,7 @@ impl MeshDistance {
                 (low, high) = (low.min(centroid), high.max(centroid));
             }
             let node = &mut nodes[n];
-            (node.min, node.max) = (min, max);
+            *node = Node::new(min, max);
             if part.len() <= LEAF {
                 (node.first, node.count) = (start as u32, part.len() as u32);
                 continue;
@@ -181,14 +212,15 @@ impl MeshDistance {
             });
             let child = nodes.len();
             (nodes[n].first, nodes[n].count) = (child as u32, 0);
-            let blank = Node { min, max, first: 0, count: 0 };
+            let blank = Node::new(min, max);
             nodes.extend([blank, blank]);
             work.push((child, start, start + middle));
             work.push((child + 1, start + middle, end));
         }
         let indices: Vec<u32> = order.iter().map(|&(_, t)| t).collect();
         let triangles = indices.iter().map(|&t| triangles[t as usize]).collect();
-        MeshDistance { nodes, triangles, indices }
+        let flipped = indices.iter().map(|&t| flipped[t as usize]).collect();
+        MeshDistance { nodes, triangles, indices, flipped }
     }
 
     /// The number of triangles.
@@ -204,19 +236,48 @@ impl MeshDistance {
     /// The closest point of the surface to `p`, exactly (see the module doc). A non-finite
     /// `p` gives a NaN distance.
     pub fn nearest(&self, p: DVec3) -> Nearest {
-        let (point, barycentric) = closest_on_triangle(p, &self.triangles[0]);
-        let mut best = (p.distance_squared(point), 0usize, point, barycentric);
+        self.answer(self.search(p, 0))
+    }
+
+    /// [`MeshDistance::nearest`] of each point, in parallel. The points are taken in the
+    /// order of a space-filling curve (Morton order over their box), in runs of [`RUN`], and
+    /// each search starts from the triangle nearest to the point before it in its run: a
+    /// candidate at most the two points' distance apart from the answer, so the descent prunes
+    /// from its first node. The distances are those of [`MeshDistance::nearest`]: the start
+    /// only changes which boxes are opened (where two triangles are equally near, either may
+    /// be named).
+    pub fn nearest_all(&self, points: &[DVec3]) -> Vec<Nearest> {
+        along_curve(points, |run| {
+            let mut start = 0;
+            run.iter()
+                .map(|&i| {
+                    let found = self.search(points[i], start);
+                    start = found.1;
+                    self.answer(found)
+                })
+                .collect()
+        })
+    }
+
+    /// The nearest triangle to `p` (in the hierarchy's order) and the closest point on it,
+    /// searched from triangle `start` as the first candidate: every node whose box could hold
+    /// a closer point than the best so far is opened, the nearer child first.
+    fn search(&self, p: DVec3, start: usize) -> Found {
+        let (point, barycentric) = closest_on_triangle(p, &self.triangles[start]);
+        let mut best = (p.distance_squared(point), start, point, barycentric);
         // Median splits keep the depth below log2 of the triangles, which are fewer than 2^31;
-        // each level leaves at most one node on the stack.
-        let mut stack = [0u32; 64];
+        // each level leaves at most one node on the stack. Each entry keeps its node's squared
+        // distance, computed once when it was pushed.
+        let mut stack = [(0u32, 0.0f64); 64];
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let node = &self.nodes[stack[top] as usize];
+            let (n, d2) = stack[top];
             // Pruned unless nearer than the best (so everything is, for a NaN query).
-            if node.distance_squared(p).partial_cmp(&best.0) != Some(Ordering::Less) {
+            if d2.partial_cmp(&best.0) != Some(Ordering::Less) {
                 continue;
             }
+            let node = &self.nodes[n as usize];
             let first = node.first as usize;
             if node.count > 0 {
                 for t in first..first + node.count as usize {
@@ -231,18 +292,21 @@ impl MeshDistance {
             let near = self.nodes[first].distance_squared(p);
             let far = self.nodes[first + 1].distance_squared(p);
             // The nearer child is pushed last, so visited first.
-            let (a, b) = if near <= far { (first + 1, first) } else { (first, first + 1) };
-            stack[top] = a as u32;
-            stack[top + 1] = b as u32;
+            let (a, b) = if near <= far {
+                ((first + 1, far), (first, near))
+            } else {
+                ((first, near), (first + 1, far))
+            };
+            stack[top] = (a.0 as u32, a.1);
+            stack[top + 1] = (b.0 as u32, b.1);
             top += 2;
         }
-        let (d2, t, point, barycentric) = best;
-        Nearest { distance: d2.sqrt(), point, triangle: self.indices[t] as usize, barycentric }
+        best
     }
 
-    /// [`MeshDistance::nearest`] of each point, in parallel.
-    pub fn nearest_all(&self, points: &[DVec3]) -> Vec<Nearest> {
-        points.par_iter().map(|&p| self.nearest(p)).collect()
+    /// What [`MeshDistance::search`] found, in the mesh's terms.
+    fn answer(&self, (d2, t, point, barycentric): Found) -> Nearest {
+        Nearest { distance: d2.sqrt(), point, triangle: self.indices[t] as usize, barycentric }
     }
 
     /// The distance of each point to the surface, positive inside and negative outside, inside
@@ -255,17 +319,64 @@ impl MeshDistance {
 
     /// Whether each point is inside: where the generalized winding number is at least 1/2,
     /// the sign [`MeshDistance::signed`] gives (see the module doc). Builds the winding
-    /// number's tree for the call.
+    /// number's tree for the call, and sums it along the same curve as
+    /// [`MeshDistance::nearest_all`], so that neighbouring queries read the same nodes.
     pub fn inside(&self, points: &[DVec3]) -> Vec<bool> {
         let winding = self.winding();
-        points.par_iter().map(|&p| winding.at(p) >= 0.5).collect()
+        along_curve(points, |run| run.iter().map(|&i| winding.at(points[i]) >= 0.5).collect())
     }
 
     /// The winding number's tree over the triangles (in the hierarchy's order: the sum does
     /// not depend on it).
     fn winding(&self) -> Winding {
-        Winding::new(self.triangles.clone())
+        let oriented = self.triangles.iter().zip(&self.flipped);
+        Winding::new(
+            oriented.map(|(&[a, b, c], &f)| if f { [a, c, b] } else { [a, b, c] }).collect(),
+        )
     }
+}
+
+/// What a search found: the squared distance, the triangle (in the hierarchy's order), the
+/// closest point and its barycentric coordinates.
+type Found = (f64, usize, DVec3, [f64; 3]);
+
+/// Queries that [`MeshDistance::nearest_all`] answers one after another, each searched from the
+/// answer before it (and that [`MeshDistance::inside`] answers in the same order).
+pub const RUN: usize = 64;
+
+/// `answer` of each point, answered in runs of [`RUN`] consecutive points along a Morton
+/// curve over their box, the runs in parallel; the answers in the points' order.
+fn along_curve<T: Send + Sync + Copy>(
+    points: &[DVec3],
+    answer: impl Fn(&[usize]) -> Vec<T> + Sync + Send,
+) -> Vec<T> {
+    let order = curve_order(points);
+    let answers: Vec<T> = order.par_chunks(RUN).flat_map_iter(answer).collect();
+    let mut place = vec![0; points.len()];
+    for (k, &i) in order.iter().enumerate() {
+        place[i] = k;
+    }
+    place.into_par_iter().map(|k| answers[k]).collect()
+}
+
+/// The indices of `points` along a Morton curve over their box (non-finite points first).
+fn curve_order(points: &[DVec3]) -> Vec<usize> {
+    let finite = points.iter().filter(|p| p.is_finite());
+    let Some(bounds) = Aabb::of_points(finite) else {
+        return (0..points.len()).collect();
+    };
+    let cells = ((1u64 << MORTON_BITS) - 1) as f64;
+    let scale = bounds.size().recip().map(|s| if s.is_finite() { s * cells } else { 0.0 });
+    let mut keyed: Vec<(u64, usize)> = points
+        .par_iter()
+        .zip(0..points.len())
+        .map(|(&p, i)| {
+            let q = ((p - bounds.min) * scale).to_array().map(|c| c as u64);
+            (if p.is_finite() { morton_key(q) + 1 } else { 0 }, i)
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 /// `distance` with the sign of the crate: positive inside, negative outside.

@@ -55,6 +55,7 @@ use rayon::prelude::*;
 use super::Implicit;
 use super::isa::Isa;
 use super::kernel::{self, Centres, LANES, Phi};
+use crate::geometry::{MORTON_BITS, morton_key};
 
 /// The most Chebyshev points per axis of any [`Params::degree`].
 const MAX_NODES: usize = 12;
@@ -284,9 +285,6 @@ struct Tree {
     nodes: Vec<Node>,
 }
 
-/// Bits of each coordinate in a Morton key.
-const MORTON_BITS: u32 = 21;
-
 impl Tree {
     fn new(points: Axes, leaf: usize) -> Tree {
         let n = points[0].len();
@@ -350,19 +348,9 @@ fn morton_keys(points: Axes, bounds: &Bounds) -> Vec<u64> {
         .map(|i| {
             let q: [u64; 3] =
                 std::array::from_fn(|a| ((points[a][i] - bounds.lo[a]) * scale[a]) as u64);
-            (spread(q[0]) << 2) | (spread(q[1]) << 1) | spread(q[2])
+            morton_key(q)
         })
         .collect()
-}
-
-/// The low 21 bits of `v`, two zero bits after each.
-fn spread(v: u64) -> u64 {
-    let mut x = v & 0x1f_ffff;
-    x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
-    x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
-    x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
-    x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
-    (x | (x << 2)) & 0x1249_2492_4924_9249
 }
 
 /// Points interpolated together by [`Chebyshev::interpolate`], one a vector lane.

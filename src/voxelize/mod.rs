@@ -57,7 +57,7 @@
 //! the classification is parallel over slabs of the grid (rayon). Besides the densities
 //! (4 bytes a voxel), one byte a voxel holds the centres' states while voxelizing.
 
-mod orient;
+pub(crate) mod orient;
 mod rays;
 pub(crate) mod winding;
 
