@@ -59,12 +59,14 @@ pub const LEAF: usize = 4;
 
 /// Bytes per triangle of a mesh that building a [`MeshDistance`] needs at its peak: the
 /// triangles' corners twice (as read from the mesh and in the hierarchy's order), their
-/// centroids and indices while sorting, and the nodes, fewer than `4 / LEAF` a triangle (leaves
-/// hold more than `LEAF / 2` triangles each). Not counted: the winding number's tree that
-/// [`MeshDistance::signed`] builds.
+/// centroids and indices while sorting, which way each faces, and the nodes, fewer than
+/// `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles each). Not counted: the
+/// re-orientation's tables while it is built (those of reading a mesh,
+/// [`crate::memory`]) and the winding number's tree that [`MeshDistance::signed`] builds.
 pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
     + size_of::<(DVec3, u32)>()
     + size_of::<u32>()
+    + size_of::<bool>()
     + size_of::<Node>() * 4 / LEAF;
 
 /// The closest point of a mesh's surface to a query point.
