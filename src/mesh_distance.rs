@@ -50,6 +50,8 @@ use crate::geometry::DVec3;
 use crate::mesh::Mesh;
 use crate::voxelize::winding::Winding;
 
+pub mod grid;
+
 /// Most triangles in a leaf of the hierarchy.
 pub const LEAF: usize = 4;
 
@@ -204,8 +206,25 @@ impl MeshDistance {
     /// The closest point of the surface to `p`, exactly (see the module doc). A non-finite
     /// `p` gives a NaN distance.
     pub fn nearest(&self, p: DVec3) -> Nearest {
-        let (point, barycentric) = closest_on_triangle(p, &self.triangles[0]);
-        let mut best = (p.distance_squared(point), 0usize, point, barycentric);
+        let (d2, t) = self.search(p, self.seed(p, 0));
+        let (point, barycentric) = closest_on_triangle(p, &self.triangles[t]);
+        Nearest { distance: d2.sqrt(), point, triangle: self.indices[t] as usize, barycentric }
+    }
+
+    /// The squared distance from `p` to triangle `t` (in the hierarchy's order) and `t`: a
+    /// start for [`MeshDistance::search`].
+    #[inline]
+    fn seed(&self, p: DVec3, t: usize) -> (f64, usize) {
+        let (point, _) = closest_on_triangle(p, &self.triangles[t]);
+        (p.distance_squared(point), t)
+    }
+
+    /// The nearest triangle to `p` (in the hierarchy's order) and its squared distance, or
+    /// `best` when none is nearer: every node whose box could hold a nearer point than the
+    /// best so far is visited, nearer child first. `best` is a triangle's squared distance
+    /// (the answer is then exact whatever the triangle) or a bound with no triangle
+    /// (`usize::MAX`), returned as it is when nothing is nearer.
+    fn search(&self, p: DVec3, mut best: (f64, usize)) -> (f64, usize) {
         // Median splits keep the depth below log2 of the triangles, which are fewer than 2^31;
         // each level leaves at most one node on the stack.
         let mut stack = [0u32; 64];
@@ -220,10 +239,10 @@ impl MeshDistance {
             let first = node.first as usize;
             if node.count > 0 {
                 for t in first..first + node.count as usize {
-                    let (point, barycentric) = closest_on_triangle(p, &self.triangles[t]);
+                    let (point, _) = closest_on_triangle(p, &self.triangles[t]);
                     let d2 = p.distance_squared(point);
                     if d2 < best.0 {
-                        best = (d2, t, point, barycentric);
+                        best = (d2, t);
                     }
                 }
                 continue;
@@ -236,8 +255,35 @@ impl MeshDistance {
             stack[top + 1] = b as u32;
             top += 2;
         }
-        let (d2, t, point, barycentric) = best;
-        Nearest { distance: d2.sqrt(), point, triangle: self.indices[t] as usize, barycentric }
+        best
+    }
+
+    /// Calls `found` with every triangle (in the hierarchy's order) whose squared distance to
+    /// `p` is at most `radius2`, that squared distance and its closest point to `p`.
+    fn within(&self, p: DVec3, radius2: f64, mut found: impl FnMut(usize, f64, DVec3)) {
+        let mut stack = [0u32; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let node = &self.nodes[stack[top] as usize];
+            if node.distance_squared(p) > radius2 {
+                continue;
+            }
+            let first = node.first as usize;
+            if node.count > 0 {
+                for t in first..first + node.count as usize {
+                    let (point, _) = closest_on_triangle(p, &self.triangles[t]);
+                    let d2 = p.distance_squared(point);
+                    if d2 <= radius2 {
+                        found(t, d2, point);
+                    }
+                }
+                continue;
+            }
+            stack[top] = first as u32;
+            stack[top + 1] = first as u32 + 1;
+            top += 2;
+        }
     }
 
     /// [`MeshDistance::nearest`] of each point, in parallel.
