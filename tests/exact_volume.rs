@@ -154,3 +154,26 @@ fn bad_bands_and_a_small_memory_limit_are_refused() {
     assert!(matches!(error, Error::Memory { .. }), "{error}");
     assert!(error.to_string().contains("a grid of 200 x"), "{error}");
 }
+
+#[test]
+fn degenerate_and_duplicated_triangles_give_the_querys_own_distances() {
+    let mut mesh = implicitize_test_support::hostile::duplicated_and_zero_area();
+    // A sliver: a triangle whose area is lost to rounding against its edges' lengths.
+    let n = mesh.vertices.len() as u32;
+    mesh.vertices.extend([
+        DVec3::new(0.2, 0.5, 1.3),
+        DVec3::new(0.9, 0.5, 1.3),
+        DVec3::new(0.55, 0.5 + 1e-9, 1.3),
+    ]);
+    mesh.triangles.push([n, n + 1, n + 2]);
+    let query = MeshDistance::new(&mesh).unwrap();
+    for band in [None, Some(2.0)] {
+        let sd = exact(&mesh, 24, band);
+        let limit = band.map_or(f64::INFINITY, |k| k * sd.grid.voxel_size);
+        for (index, &value) in sd.data.iter().enumerate() {
+            let p = sd.grid.position(sd.grid.voxel(index));
+            let expected = query.nearest(p).distance.min(limit) as f32;
+            assert_eq!(value.abs(), expected, "voxel {index}, band {band:?}");
+        }
+    }
+}

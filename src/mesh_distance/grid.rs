@@ -21,8 +21,8 @@
 //! # Band
 //! With a band of K voxels, every value is clamped to ±K voxels (K times the voxel size, mesh
 //! units) and only the voxels that may lie within K voxels of the surface are measured, each
-//! block's gathering bounded by K voxels (plus ρ) instead of `d(c) + 2ρ`: the volume is the unbanded one clamped, voxel for voxel. The
-//! voxels measured are those within R = ⌊K + 1/2⌋ voxels along every axis of a cell a
+//! block gathering the triangles within K voxels plus ρ of its centre instead of `d(c) + 2ρ`:
+//! the volume is the unbanded one clamped, voxel for voxel. The voxels measured are those within R = ⌊K + 1/2⌋ voxels along every axis of a cell a
 //! triangle may touch (a cell whose centre is within half its diagonal, √3/2 voxel, of the
 //! triangle). None within K voxels is missed: if a voxel centre p lies within K voxels of its
 //! closest point q, and q lies in the cell of voxel c, then along each axis p is at most
@@ -91,7 +91,8 @@ struct Candidates {
 
 impl Candidates {
     /// Gathers the triangles within `radius` of `c`.
-    fn gather(&mut self, query: &MeshDistance, c: DVec3, radius: f64, reach: f64) {
+    /// `rho`: the farthest voxel centre from `c`, for the margin against rounding.
+    fn gather(&mut self, query: &MeshDistance, c: DVec3, radius: f64, rho: f64) {
         self.distance.clear();
         self.gradient.iter_mut().for_each(Vec::clear);
         self.triangle.clear();
@@ -99,7 +100,7 @@ impl Candidates {
         query.within(c, radius2, |t, d2, point| {
             let d = d2.sqrt();
             let g = if d > 0.0 { (c - point) / d } else { DVec3::ZERO };
-            self.distance.push(d - 1e-10 * (d + reach));
+            self.distance.push(d - 1e-10 * (d + rho));
             for (axis, gradient) in self.gradient.iter_mut().enumerate() {
                 gradient.push(g[axis]);
             }
@@ -173,16 +174,16 @@ impl Block<'_> {
         let low = self.grid.position(self.start);
         let high = self.grid.position(end.map(|e| e - 1));
         let c = (low + high) / 2.0;
-        let reach = (high - low).length() / 2.0;
+        let rho = (high - low).length() / 2.0;
         let radius = match self.limit {
-            Some(limit) => limit + reach,
+            Some(limit) => limit + rho,
             None => {
                 let (d2, t) = query.search(c, query.seed(c, candidates.previous));
                 candidates.previous = t;
-                d2.sqrt() + 2.0 * reach
+                d2.sqrt() + 2.0 * rho
             }
         };
-        candidates.gather(query, c, radius, reach);
+        candidates.gather(query, c, radius, rho);
         for v in voxels() {
             let value = &mut values[local(v)];
             let inside = *value > 0.5;
