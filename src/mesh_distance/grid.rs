@@ -279,10 +279,10 @@ mod tests {
         let mut mask = vec![false; grid.len()];
         mask[grid.index([1, 3, 6])] = true;
         let grown = dilate(mask, dims, 2);
-        for index in 0..grid.len() {
+        for (index, &grown) in grown.iter().enumerate() {
             let [i, j, k] = grid.voxel(index);
             let inside = i <= 3 && (1..=5).contains(&j) && k >= 4;
-            assert_eq!(grown[index], inside, "{:?}", [i, j, k]);
+            assert_eq!(grown, inside, "{:?}", [i, j, k]);
         }
     }
 
