@@ -14,6 +14,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use criterion::{Criterion, criterion_group};
+use implicitize::grid::Values;
 use implicitize::polygonize::polygonize_field_dense;
 use implicitize::{DVec3, Field, Grid, Resolution, Volume, polygonize, polygonize_field};
 use implicitize_test_support::data::bunny;
@@ -124,7 +125,9 @@ fn time_file(path: &Path) {
 
 fn main() {
     if let Some(path) = std::env::var_os("POLYGONIZE_WRITE_SHAPES") {
-        shapes_volume().save_npy(Path::new(&path)).expect("writing the shapes volume");
+        shapes_volume()
+            .save_npy(Path::new(&path), &Values::default())
+            .expect("writing the shapes volume");
     } else if let Some(path) = std::env::var_os("POLYGONIZE_TIME") {
         time_file(Path::new(&path));
     } else {

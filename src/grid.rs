@@ -185,15 +185,52 @@ impl<T> Volume<T> {
     }
 }
 
+/// The unit of a volume's values, as the `.json` beside its `.npy` records it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Units {
+    /// Voxels of the grid (the voxel signed distance, paper 4.2).
+    Voxels,
+    /// The mesh's own units (the exact signed distance).
+    Mesh,
+}
+
+/// What the `.json` beside a volume's `.npy` records of its values besides the grid: their
+/// unit (none for densities: `Values::default()`) and the band they are clamped to (voxels), each left out when
+/// `None`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct Values {
+    /// The values' unit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub units: Option<Units>,
+    /// The band, in voxels: values within it are exact, the others clamped to its edge.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub band: Option<f64>,
+}
+
+impl Values {
+    /// A signed distance in voxels, unclamped.
+    pub const VOXELS: Values = Values { units: Some(Units::Voxels), band: None };
+}
+
 impl Volume<f32> {
     /// Writes the volume as a float32 NumPy array indexed `[i, j, k]` (C order) at `path`, and
-    /// the grid as JSON (`{"dims", "origin", "voxel_size"}`) beside it, with `.json` for `.npy`;
-    /// each file atomically ([`crate::output`]).
-    pub fn save_npy(&self, path: &Path) -> Result<()> {
+    /// the grid and `values` as JSON (`{"dims", "origin", "voxel_size"}` and, when given,
+    /// `"units"` and `"band"`) beside it, with `.json` for `.npy`; each file atomically
+    /// ([`crate::output`]).
+    pub fn save_npy(&self, path: &Path, values: &Values) -> Result<()> {
+        #[derive(Serialize)]
+        struct Header<'a> {
+            #[serde(flatten)]
+            grid: &'a Grid,
+            #[serde(flatten)]
+            values: &'a Values,
+        }
         let shape = self.grid.dims.map(|d| d as u64);
         crate::npy::write(path, &shape, &self.data)?;
         let json_path = path.with_extension("json");
-        let json = serde_json::to_string_pretty(&self.grid).expect("a grid always serializes");
+        let header = Header { grid: &self.grid, values };
+        let json = serde_json::to_string_pretty(&header).expect("a grid always serializes");
         crate::output::write_bytes(&json_path, (json + "\n").as_bytes())
     }
 }

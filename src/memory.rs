@@ -86,6 +86,19 @@ impl Estimate {
         Estimate::grid(dims, VOLUME_PER_VOXEL, triangles)
     }
 
+    /// `sdf --exact` of a mesh of `triangles` triangles on a grid of `dims` voxels: the
+    /// volume's grids (the exact values replace the densities in place; a band's flags take
+    /// two bytes a voxel while it is found) and the distance query's hierarchy
+    /// ([`crate::mesh_distance::BYTES_PER_TRIANGLE`] a triangle).
+    pub fn exact_volume(dims: [usize; 3], triangles: usize) -> Estimate {
+        let grid = Estimate::grid(dims, VOLUME_PER_VOXEL, triangles);
+        let query = crate::mesh_distance::BYTES_PER_TRIANGLE as u64;
+        Estimate {
+            bytes: grid.bytes.saturating_add(query.saturating_mul(triangles as u64)),
+            ..grid
+        }
+    }
+
     /// A fit of a mesh of `triangles` triangles (0 for a picture) on a grid of `dims` voxels,
     /// with room for a dense solve of the largest size ([`crate::rbf::DIRECT_MAX`]
     /// constraints); [`Estimate::fit_solving`] budgets larger ones as the fit grows.

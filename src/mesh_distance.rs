@@ -54,6 +54,8 @@ use crate::voxelize::orient::orient;
 use crate::voxelize::winding::Winding;
 use glam::Vec3;
 
+pub mod grid;
+
 /// Most triangles in a leaf of the hierarchy.
 pub const LEAF: usize = 4;
 
@@ -238,7 +240,7 @@ impl MeshDistance {
     /// The closest point of the surface to `p`, exactly (see the module doc). A non-finite
     /// `p` gives a NaN distance.
     pub fn nearest(&self, p: DVec3) -> Nearest {
-        self.answer(self.search(p, 0))
+        self.answer(p, self.search(p, self.seed(p, 0)))
     }
 
     /// [`MeshDistance::nearest`] of each point, in parallel. The points are taken in the
@@ -253,20 +255,28 @@ impl MeshDistance {
             let mut start = 0;
             run.iter()
                 .map(|&i| {
-                    let found = self.search(points[i], start);
+                    let found = self.search(points[i], self.seed(points[i], start));
                     start = found.1;
-                    self.answer(found)
+                    self.answer(points[i], found)
                 })
                 .collect()
         })
     }
 
-    /// The nearest triangle to `p` (in the hierarchy's order) and the closest point on it,
-    /// searched from triangle `start` as the first candidate: every node whose box could hold
-    /// a closer point than the best so far is opened, the nearer child first.
-    fn search(&self, p: DVec3, start: usize) -> Found {
-        let (point, barycentric) = closest_on_triangle(p, &self.triangles[start]);
-        let mut best = (p.distance_squared(point), start, point, barycentric);
+    /// The squared distance from `p` to triangle `t` (in the hierarchy's order) and `t`: a
+    /// start for [`MeshDistance::search`].
+    #[inline]
+    fn seed(&self, p: DVec3, t: usize) -> (f64, usize) {
+        let (point, _) = closest_on_triangle(p, &self.triangles[t]);
+        (p.distance_squared(point), t)
+    }
+
+    /// The nearest triangle to `p` (in the hierarchy's order) and its squared distance, or
+    /// `best` when none is nearer: every node whose box could hold a nearer point than the
+    /// best so far is visited, nearer child first. `best` is a triangle's squared distance
+    /// (the answer is then exact whatever the triangle) or a bound with no triangle
+    /// (`usize::MAX`), returned as it is when nothing is nearer.
+    fn search(&self, p: DVec3, mut best: (f64, usize)) -> (f64, usize) {
         // Median splits keep the depth below log2 of the triangles, which are fewer than 2^31;
         // each level leaves at most one node on the stack. Each entry keeps its node's squared
         // distance, computed once when it was pushed.
@@ -283,10 +293,10 @@ impl MeshDistance {
             let first = node.first as usize;
             if node.count > 0 {
                 for t in first..first + node.count as usize {
-                    let (point, barycentric) = closest_on_triangle(p, &self.triangles[t]);
+                    let (point, _) = closest_on_triangle(p, &self.triangles[t]);
                     let d2 = p.distance_squared(point);
                     if d2 < best.0 {
-                        best = (d2, t, point, barycentric);
+                        best = (d2, t);
                     }
                 }
                 continue;
@@ -306,8 +316,37 @@ impl MeshDistance {
         best
     }
 
-    /// What [`MeshDistance::search`] found, in the mesh's terms.
-    fn answer(&self, (d2, t, point, barycentric): Found) -> Nearest {
+    /// Calls `found` with every triangle (in the hierarchy's order) whose squared distance to
+    /// `p` is at most `radius2`, that squared distance and its closest point to `p`.
+    fn within(&self, p: DVec3, radius2: f64, mut found: impl FnMut(usize, f64, DVec3)) {
+        let mut stack = [0u32; 64];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let node = &self.nodes[stack[top] as usize];
+            if node.distance_squared(p) > radius2 {
+                continue;
+            }
+            let first = node.first as usize;
+            if node.count > 0 {
+                for t in first..first + node.count as usize {
+                    let (point, _) = closest_on_triangle(p, &self.triangles[t]);
+                    let d2 = p.distance_squared(point);
+                    if d2 <= radius2 {
+                        found(t, d2, point);
+                    }
+                }
+                continue;
+            }
+            stack[top] = first as u32;
+            stack[top + 1] = first as u32 + 1;
+            top += 2;
+        }
+    }
+
+    /// What [`MeshDistance::search`] found for `p`, in the mesh's terms.
+    fn answer(&self, p: DVec3, (d2, t): (f64, usize)) -> Nearest {
+        let (point, barycentric) = closest_on_triangle(p, &self.triangles[t]);
         Nearest { distance: d2.sqrt(), point, triangle: self.indices[t] as usize, barycentric }
     }
 
@@ -337,10 +376,6 @@ impl MeshDistance {
         )
     }
 }
-
-/// What a search found: the squared distance, the triangle (in the hierarchy's order), the
-/// closest point and its barycentric coordinates.
-type Found = (f64, usize, DVec3, [f64; 3]);
 
 /// Queries that [`MeshDistance::nearest_all`] answers one after another, each searched from the
 /// answer before it (and that [`MeshDistance::inside`] answers in the same order).

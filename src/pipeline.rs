@@ -5,7 +5,7 @@
 //! | job | options | function |
 //! |---|---|---|
 //! | fit a mesh and write what it made | [`MeshFitOptions`], [`FitOutputs`] | [`fit()`] ([`fit_mesh`], [`fit_file`]) |
-//! | a mesh's densities or signed distance on a grid | [`VolumeOptions`] | [`volume`] |
+//! | a mesh's densities, or its voxel or exact signed distance, on a grid | [`VolumeOptions`] | [`volume`] |
 //! | distances from points to a mesh, closest points | [`DistanceOptions`] | [`distance()`] |
 //! | points near a mesh and uniform around it, with their distances | [`SampleOptions`] | [`sample()`] |
 //! | polygonize a model's zero set | [`PolygonizeOptions`] | [`polygonize`] |
@@ -41,7 +41,7 @@ use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::fit::{self, FitOptions, FitReport, Goal, IterationReport, Termination};
 use crate::geometry::{Aabb, DVec3};
-use crate::grid::{Grid, Resolution, Volume};
+use crate::grid::{Grid, Resolution, Units, Values, Volume};
 use crate::memory::{Estimate, MemoryLimit};
 use crate::mesh::{self, Mesh};
 use crate::mesh_distance::{self, MeshDistance, Nearest};
@@ -115,8 +115,48 @@ pub struct VolumeOptions {
     pub resolution: Resolution,
     /// How the mesh is voxelized.
     pub voxelize: VoxelizeOptions,
+    /// For [`VolumeKind::ExactSignedDistance`] only: measure exactly only the voxels within
+    /// this many voxels of the surface (positive), and clamp every value to plus or minus as
+    /// many voxels (in mesh units). `None` (default): every voxel exact.
+    pub band: Option<f64>,
     /// The memory the job may use.
     pub memory_limit: MemoryLimit,
+}
+
+impl VolumeOptions {
+    /// Checks the voxelization's options and the band, which only the exact signed distance
+    /// takes and which must be a positive number of voxels.
+    ///
+    /// # Errors
+    /// The first setting out of its range, named.
+    pub fn check(&self, kind: VolumeKind) -> Result<()> {
+        self.voxelize.check()?;
+        let Some(band) = self.band else { return Ok(()) };
+        if kind != VolumeKind::ExactSignedDistance {
+            return Err(Error::invalid(
+                "options",
+                "`band` applies only to the exact signed distance (`exact`)",
+            ));
+        }
+        if !(band.is_finite() && band > 0.0) {
+            return Err(Error::invalid(
+                "options",
+                format!("`band` must be a positive number of voxels, not {band}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// What the `.json` beside a volume of `kind` made with these options records of its
+    /// values besides the grid (see [`Volume::save_npy`]).
+    pub fn values(&self, kind: VolumeKind) -> Values {
+        let units = match kind {
+            VolumeKind::Density => None,
+            VolumeKind::SignedDistance => Some(Units::Voxels),
+            VolumeKind::ExactSignedDistance => Some(Units::Mesh),
+        };
+        Values { units, band: self.band }
+    }
 }
 
 /// Which volume [`volume`] makes.
@@ -126,6 +166,10 @@ pub enum VolumeKind {
     Density,
     /// The signed Euclidean distance of the voxelization, in voxels, inside positive (4.2).
     SignedDistance,
+    /// The exact distance from each voxel centre to the mesh's triangles, in mesh units,
+    /// positive where the voxelization is inside (the sign of [`VolumeKind::SignedDistance`]);
+    /// see [`mesh_distance::grid`].
+    ExactSignedDistance,
 }
 
 /// What a distance job ([`distance()`]) needs besides the mesh and the points.
@@ -347,7 +391,7 @@ pub fn fit(
     let prepared = Prepared::new(&mesh, &name, options)?;
     observer.prepared(&prepared);
     if let Some(path) = &outputs.sdf {
-        prepared.goal().sd().save_npy(path)?;
+        prepared.goal().sd().save_npy(path, &Values::VOXELS)?;
     }
     let mut fitted = prepared.fit(|report, implicit| observer.iteration(report, implicit))?;
     fitted.report.mesh_bytes = bytes;
@@ -399,26 +443,31 @@ fn checked_grid(
     Ok(grid)
 }
 
-/// The densities or the signed distance of `mesh` on the grid `options.resolution` places
-/// around it, and how its inside was decided. `source` names the mesh in errors. The signed
-/// distance is in voxels, inside positive (paper 4.2).
+/// The densities, the voxel signed distance or the exact signed distance of `mesh` (`kind`) on
+/// the grid `options.resolution` places around it, and how its inside was decided. `source`
+/// names the mesh in errors. The voxel signed distance is in voxels (paper 4.2), the exact one
+/// in mesh units (computed in f64, stored as f32), both inside positive with the same sign.
 ///
 /// # Errors
-/// A mesh without triangles, a grid that cannot be placed or does not fit in the memory
-/// limit, and the errors of [`voxelize::voxelize`].
+/// An option out of range, a mesh without triangles (or, for the exact distance, with an index
+/// out of range or a non-finite coordinate), a grid that cannot be placed or does not fit in
+/// the memory limit, and the errors of [`voxelize::voxelize`].
 pub fn volume(
     mesh: &Mesh,
     source: &str,
     kind: VolumeKind,
     options: &VolumeOptions,
 ) -> Result<(Volume<f32>, Inside)> {
-    options.voxelize.check()?;
+    options.check(kind).map_err(|e| e.in_context(source))?;
     let bounds = mesh_bounds(mesh, source)?;
     let limit = options.memory_limit.bytes();
     let triangles = mesh.triangles.len();
-    let grid =
-        checked_grid(&bounds, options.resolution, limit, |g| Estimate::volume(g.dims, triangles))
-            .map_err(|e| e.in_context(source))?;
+    let estimate = |g: &Grid| match kind {
+        VolumeKind::ExactSignedDistance => Estimate::exact_volume(g.dims, triangles),
+        _ => Estimate::volume(g.dims, triangles),
+    };
+    let grid = checked_grid(&bounds, options.resolution, limit, estimate)
+        .map_err(|e| e.in_context(source))?;
     let voxelized =
         voxelize::voxelize(mesh, &grid, &options.voxelize).map_err(|e| e.in_context(source))?;
     let volume = match kind {
@@ -427,6 +476,10 @@ pub fn volume(
             let inside = distance::inside(&voxelized.density);
             drop(voxelized.density);
             distance::signed_distance(&inside)
+        }
+        VolumeKind::ExactSignedDistance => {
+            let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
+            mesh_distance::grid::signed_distance(&query, voxelized.density, options.band)
         }
     };
     Ok((volume, voxelized.inside))

@@ -21,6 +21,7 @@ const PUBLIC_MODULES: &[&str] = &[
     "memory",
     "mesh",
     "mesh_distance",
+    "mesh_distance::grid",
     "metrics",
     "model",
     "morph",

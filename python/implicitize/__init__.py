@@ -139,17 +139,26 @@ def signed_distance(
     resolution: Optional[int] = None,
     dims: Optional[Sequence[int]] = None,
     *,
+    exact: bool = False,
+    band: Optional[float] = None,
     memory_limit: _Memory = None,
 ) -> Volume:
-    """The signed Euclidean distance in voxels, inside positive (paper 4.2), as ``implicitize sdf``.
+    """The signed distance at the voxel centres, inside positive, as ``implicitize sdf``.
 
-    ``resolution`` (default {resolution}), ``dims`` and ``memory_limit`` as in :func:`voxelize`.
+    By default the Euclidean distance of the voxelization, in voxels (paper 4.2). With
+    ``exact=True``, as ``implicitize sdf --exact``: the exact distance from each voxel centre to
+    the mesh's triangles, in mesh units (computed in float64, stored as float32), signed as the
+    voxelization decides inside; with ``band=K`` (voxels, only with ``exact``) only voxels
+    within K voxels of the surface are measured and every value is clamped to plus or minus
+    K voxels (``K * voxel_size``). ``resolution`` (default {resolution}), ``dims`` and
+    ``memory_limit`` as in :func:`voxelize`. The GIL is released while it works.
     """
     values, origin, voxel_size = _volume(
         _mesh_arg(mesh),
-        "signed_distance",
+        "exact_signed_distance" if exact else "signed_distance",
         *_grid_args(resolution, dims),
         memory_limit=memory_limit,
+        band=None if band is None else float(band),
     )
     return Volume(values, origin, voxel_size)
 

@@ -1,5 +1,5 @@
 //! `voxelize` and `signed_distance`: a mesh's volumes on a grid, the same numbers as the
-//! command-line tool's `.npy` files (`implicitize voxelize` and `implicitize sdf`).
+//! command-line tool's `.npy` files (`implicitize voxelize`, `implicitize sdf [--exact]`).
 
 use implicitize::pipeline::{self, VolumeKind, VolumeOptions};
 use numpy::{IntoPyArray, PyArray3, ndarray::Array3};
@@ -12,11 +12,12 @@ use crate::inputs::{self, MemoryArg, MeshArg};
 /// in C order, the centre of voxel (0, 0, 0) and the voxel's side, in mesh units.
 type VolumeParts<'py> = (Bound<'py, PyArray3<f32>>, (f64, f64, f64), f64);
 
-/// The densities (`kind` "density", in [0, 1], 1 inside) or the signed distance (`kind`
-/// "signed_distance", voxels, inside positive) of `mesh` on the grid `resolution` or `dims`
-/// place around it, within `memory_limit`.
+/// The densities (`kind` "density", in [0, 1], 1 inside), the voxel signed distance (`kind`
+/// "signed_distance", voxels, inside positive) or the exact one (`kind`
+/// "exact_signed_distance", mesh units, clamped to `band` voxels when given) of `mesh` on the
+/// grid `resolution` or `dims` place around it, within `memory_limit`.
 #[pyfunction]
-#[pyo3(signature = (mesh, kind, resolution=None, dims=None, memory_limit=None))]
+#[pyo3(signature = (mesh, kind, resolution=None, dims=None, memory_limit=None, band=None))]
 pub fn volume<'py>(
     py: Python<'py>,
     mesh: MeshArg<'py>,
@@ -24,13 +25,16 @@ pub fn volume<'py>(
     resolution: Option<i64>,
     dims: Option<Vec<i64>>,
     memory_limit: Option<MemoryArg>,
+    band: Option<f64>,
 ) -> PyResult<VolumeParts<'py>> {
     let mut options = VolumeOptions::default();
     options.resolution = inputs::resolution(resolution, dims)?;
     options.memory_limit = inputs::memory_limit(memory_limit)?;
+    options.band = band;
     let kind = match kind {
         "density" => VolumeKind::Density,
         "signed_distance" => VolumeKind::SignedDistance,
+        "exact_signed_distance" => VolumeKind::ExactSignedDistance,
         other => return Err(invalid(format!("unknown volume kind {other:?}"))),
     };
     let input = mesh.into_input()?;

@@ -49,3 +49,36 @@ def test_signed_distance_is_positive_inside(triceratops):
     distance = implicitize.signed_distance(triceratops, resolution=40).values
     assert 0 <= density.min() and density.max() <= 1
     assert (distance[density == 1] > 0).all() and (distance[density == 0] < 0).all()
+
+
+@pytest.mark.parametrize("band", [None, 2.5])
+def test_exact_signed_distance_equals_the_cli(tmp_path, run, triceratops, band):
+    out = tmp_path / "exact.npy"
+    extra = [] if band is None else ["--band", band]
+    run("sdf", triceratops, "--resolution", "40", "--exact", *extra, "-o", out)
+    meta = json.loads(out.with_suffix(".json").read_text())
+    assert meta["units"] == "mesh" and meta.get("band") == band
+    volume = implicitize.signed_distance(triceratops, resolution=40, exact=True, band=band)
+    assert volume.values.dtype == np.float32 and volume.values.shape == tuple(meta["dims"])
+    np.testing.assert_array_equal(volume.values, np.load(out))
+    assert volume.voxel_size == meta["voxel_size"] and list(volume.origin) == meta["origin"]
+
+
+def test_exact_signed_distance_has_the_voxel_sign_in_mesh_units(triceratops):
+    voxels = implicitize.signed_distance(triceratops, resolution=40).values
+    exact = implicitize.signed_distance(triceratops, resolution=40, exact=True)
+    assert (np.signbit(exact.values) == (voxels < 0)).all()
+    # In voxels, near the voxel distance (which measures the voxelization).
+    assert np.median(np.abs(exact.values / exact.voxel_size - voxels)) < 0.5
+    banded = implicitize.signed_distance(triceratops, resolution=40, exact=True, band=2)
+    limit = np.float32(2 * exact.voxel_size)
+    np.testing.assert_array_equal(banded.values, np.clip(exact.values, -limit, limit))
+
+
+def test_a_band_needs_exact_and_the_memory_limit_holds(triceratops):
+    with pytest.raises(ValueError, match="band applies only to the exact"):
+        implicitize.signed_distance(triceratops, resolution=40, band=2)
+    with pytest.raises(ValueError, match="band must be a positive"):
+        implicitize.signed_distance(triceratops, resolution=40, exact=True, band=0)
+    with pytest.raises(MemoryError, match="memory_limit"):
+        implicitize.signed_distance(triceratops, resolution=300, exact=True, memory_limit="80M")

@@ -113,3 +113,58 @@ fn errors_name_the_file() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("grid"));
 }
+
+#[test]
+fn sdf_exact_writes_mesh_units_with_the_voxel_sdfs_sign_and_a_band() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = triceratops();
+    let sdf = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["sdf", mesh.to_str().unwrap(), "--dims", "40", "24", "20"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", out.to_str().unwrap(), "--quiet"]);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (shape, values) = load(&out);
+        assert_eq!(shape, vec![40, 24, 20]);
+        (values, grid_json(&out))
+    };
+    let (voxels, voxels_json) = sdf("voxels.npy", &[]);
+    let (exact, exact_json) = sdf("exact.npy", &["--exact"]);
+    let (banded, banded_json) = sdf("banded.npy", &["--exact", "--band", "2"]);
+    assert_eq!(voxels_json["units"], "voxels");
+    assert!(voxels_json.get("band").is_none());
+    assert_eq!(exact_json["units"], "mesh");
+    assert_eq!(
+        (banded_json["units"].as_str(), banded_json["band"].as_f64()),
+        (Some("mesh"), Some(2.0))
+    );
+    assert_eq!(exact_json["dims"], voxels_json["dims"]);
+    let h = exact_json["voxel_size"].as_f64().unwrap();
+    // Mesh units: in voxels, the exact distance is near the voxel one (which measures the
+    // voxelization, thin parts lost), half the voxels within half a voxel.
+    let mut gaps: Vec<f64> = Vec::new();
+    for (&e, &v) in exact.iter().zip(&voxels) {
+        assert_eq!(e.is_sign_positive(), v > 0.0, "{e} against {v}");
+        gaps.push((f64::from(e) / h - f64::from(v)).abs());
+    }
+    gaps.sort_by(f64::total_cmp);
+    assert!(gaps[gaps.len() / 2] < 0.5, "median {} voxels", gaps[gaps.len() / 2]);
+    let limit = (2.0 * h) as f32;
+    for (&b, &e) in banded.iter().zip(&exact) {
+        assert_eq!(b, e.clamp(-limit, limit));
+    }
+    assert!(banded.iter().filter(|b| b.abs() == limit).count() > 1000);
+}
+
+#[test]
+fn sdf_band_without_exact_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sd.npy");
+    let mesh = triceratops();
+    let o = run(&["sdf", mesh.to_str().unwrap(), "--band", "2", "-o", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("--band") && stderr.contains("--exact"), "{stderr}");
+    assert!(!out.exists());
+}

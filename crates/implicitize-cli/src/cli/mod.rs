@@ -54,8 +54,9 @@ enum Command {
     Mesh(polygonize::MeshCommand),
     /// Voxelize a mesh: densities in [0, 1], 1 inside (paper 4.1).
     Voxelize(volume::VolumeArgs),
-    /// The signed distance of a mesh's voxelization, in voxels, inside positive (paper 4.2).
-    Sdf(volume::VolumeArgs),
+    /// The signed distance of a mesh's voxelization, in voxels, inside positive (paper 4.2);
+    /// with --exact, the exact distance to the mesh at the voxel centres, in mesh units.
+    Sdf(volume::SdfArgs),
     /// Solve for the implicit function through constraints in a CSV file, and save the model.
     Solve(solve::SolveArgs),
     /// Evaluate a model at points (inside positive, outside negative).
@@ -112,8 +113,8 @@ fn dispatch(command: &Command, progress: common::Progress) -> anyhow::Result<()>
         Command::Batch(args) => batch::run(args, progress),
         Command::Fit2d(args) => fit2d::run(args, progress),
         Command::Mesh(args) => polygonize::run(args, progress),
-        Command::Voxelize(args) => volume::run(args, VolumeKind::Density, progress),
-        Command::Sdf(args) => volume::run(args, VolumeKind::SignedDistance, progress),
+        Command::Voxelize(args) => volume::run(args, VolumeKind::Density, None, progress),
+        Command::Sdf(args) => volume::run_sdf(args, progress),
         Command::Solve(args) => solve::run(args, progress),
         Command::Eval(args) => eval::run(args, progress),
         Command::Distance(args) => distance::run(args, progress),
