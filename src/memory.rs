@@ -124,7 +124,7 @@ impl Estimate {
         }
     }
 
-        /// A picture of `width` x `height` pixels.
+    /// A picture of `width` x `height` pixels.
     pub fn picture(width: usize, height: usize) -> Estimate {
         let pixels = (width as u64).saturating_mul(height as u64);
         Estimate {

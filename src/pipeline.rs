@@ -540,7 +540,7 @@ impl<'a> Prepared<'a> {
         Estimate::levels(self.goal.surface().len()).plus(&grids)
     }
 
-        /// The most constraints, up to `requested`, whose solve fits in the memory limit beside the
+    /// The most constraints, up to `requested`, whose solve fits in the memory limit beside the
     /// fit's grids (never fewer than a dense solve's, which the grid's check made room for).
     fn constraints_within_memory(&self, requested: usize) -> usize {
         let dims = self.goal.grid().dims;

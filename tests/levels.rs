@@ -19,16 +19,16 @@ const TARGET: f32 = 1.0;
 
 fn torus_mesh() -> &'static Mesh {
     static MESH: OnceLock<Mesh> = OnceLock::new();
-    MESH.get_or_init(|| torus(2.0, 0.6, 192, 96))
+    MESH.get_or_init(|| torus(2.0, 0.6, 96, 48))
 }
 
 /// The options of a fit at 128 with levels: the pyramid starts at 32 voxels so that level 0
-/// fits at a quarter of the resolution (35 voxels), and from 10 initial constraints in two
+/// fits at a quarter of the resolution (35 voxels), and from 20 initial constraints in a few
 /// iterations (the pyramid's grids take the others) so that it is deliberately coarse.
 fn options(max_levels: usize) -> MeshFitOptions {
     let mut fit = FitOptions::default();
-    fit.initial_constraints = 10;
-    fit.max_iterations = 4;
+    fit.initial_constraints = 20;
+    fit.max_iterations = 6;
     fit.target_error = TARGET;
     fit.coarse_start_min_axis = 32;
     fit.levels.min_axis = 100;
@@ -83,7 +83,7 @@ fn levels_correct_a_coarse_level_0_below_the_target() {
     let (base_there, base_back) = distances(levels().base());
     assert!(base_there.max(base_back) > 2.0, "level 0: {base_there} {base_back}");
     let (there, back) = distances(&fitted().model);
-    assert!(there <= 2.0 && back <= 2.0, "with levels: {there} {back}");
+    assert!(there <= 2.0 && back <= 2.0, "with levels: {there} {back}; {report:?}");
     assert!(fitted().report.max_error_voxels <= 1.5, "E {}", fitted().report.max_error_voxels);
 }
 

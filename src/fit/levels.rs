@@ -5,22 +5,26 @@
 //! ```text
 //! level 0 = the loop of paper 5 on the pyramid's coarsest goal (coarse.rs), to its own target
 //! points  = the goal's surface points on the full grid (one per boundary voxel), goal value 0
-//! r       = 0 - F(points)                       the residual of the levels so far, in voxels
-//! for k = 1, 2, ... while max |r| > target and k <= max_levels and rho_k >= min_radius:
+//! band    = the voxels whose goal signed distance is between 1.5 and level 0's E + 2 voxels
+//! for k = 1, 2, ... while (max |r| > target or a band voxel has the wrong side)
+//!                   and k <= max_levels and rho_k >= min_radius:
+//!     r       = 0 - F at the points; sd_goal - F at the band voxels on the wrong side (voxels)
 //!     rho_k   = first_radius voxels of level 0 / 2^(k-1)
-//!     centres = points where |r| is largest, greedily, each >= spacing x rho_k from the others,
-//!               among the points within rho_k of one whose |r| is above hot_fraction x target
+//!     centres = points and wrong-side voxels where |r| is largest, greedily, each at least
+//!               spacing x rho_k from the others, among those within rho_k of one whose |r| is
+//!               above hot_fraction x target
 //!     g_k     = the Wendland interpolant of r at its centres (a sparse SPD solve)
-//!     r      -= g_k(points)
 //! ```
 //!
 //! The residual is taken at the goal's surface points, where the goal's signed distance is 0
 //! to sub-voxel precision ([`Goal::surface`]): the value there is how far the model's zero set
 //! lies from that point, in voxels, where the model's slope is one (level 0 interpolates signed
-//! distances, so its slope near the surface is close to one). As in the paper, centres go where
-//! the error is worst and are pruned by spacing (Ohtake, Belyaev and Seidel 2003 space theirs a
-//! fraction of the support apart); a level ends the fit when the largest error is at most the
-//! target. The report's E is then measured on the full grid, both ways, as for any fit.
+//! distances, so its slope near the surface is close to one). Away from the surface only the
+//! side matters: a band voxel joins the data only where the model has the wrong side, so that
+//! spurious pieces of level 0's surface within the band are removed without asking the model
+//! to be a distance function there. As in the paper, centres go where the error is worst and
+//! are pruned by spacing (Ohtake, Belyaev and Seidel 2003 space theirs a fraction of the
+//! support apart). The report's E is then measured on the full grid, both ways, as for any fit.
 //!
 //! Level 0 fits on the coarsest goal of the pyramid (512 voxels: 131), where each iteration costs
 //! a sixty-fourth of one on the full grid; `first_radius` (4 of its voxels, 16 of a 512 grid) is
@@ -96,6 +100,9 @@ pub struct LevelReport {
     pub max_error_voxels: f64,
     /// The 99.9th percentile of those errors, in voxels.
     pub p999_error_voxels: f64,
+    /// Voxels of the band where the levels below gave the wrong side, which this level fitted
+    /// to the goal's signed distance.
+    pub wrong_side_voxels: usize,
     /// Seconds spent on this level.
     pub seconds: f64,
 }
@@ -116,6 +123,13 @@ pub struct LevelsReport {
     pub base_p999_error_voxels: f64,
     /// The goal's surface points the levels were fitted at.
     pub points: usize,
+    /// The band, in voxels of the full grid, of the goal's signed distance in which the side
+    /// of the model is checked: level 0's sub-voxel E plus 2 voxels.
+    pub band_voxels: f64,
+    /// The multi-scale model's sub-voxel E against the goal, both ways, on the full grid.
+    pub max_error_subvoxel_voxels: f32,
+    /// Its RMS sub-voxel error.
+    pub rms_error_subvoxel_voxels: f32,
     /// Each detail level, coarsest first.
     pub levels: Vec<LevelReport>,
 }
@@ -141,9 +155,11 @@ pub fn applies(goal: &Goal, options: &FitOptions) -> bool {
 }
 
 /// Bytes per goal surface point a multi-scale fit holds beyond the fit's grids: the point, its
-/// residual and error, and at worst a centre of the finest level with its sparse row (about
-/// 1 / spacing^2 x pi neighbours of 12 bytes), index entries and solve vectors.
-pub const BYTES_PER_POINT: u64 = 640;
+/// residual and error and their copies as candidates, at worst a centre of the finest level
+/// with its sparse row (about pi / spacing^2 neighbours of 12 bytes), index entries and solve
+/// vectors, and the band voxels beside it (index and value, 8 bytes each, at most 2 x 16 of
+/// them, a band being at most `first_radius` voxels of level 0 wide).
+pub const BYTES_PER_POINT: u64 = 900;
 
 /// Level 0 on the pyramid's coarsest goal, then detail levels on `goal` (see the module doc).
 /// `on_iteration` sees level 0's iterations, their errors in voxels of `goal`'s grid.
@@ -157,32 +173,41 @@ pub fn fit(
 ) -> Result<LevelledFit> {
     let started = Instant::now();
     let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
-    let (stage, base_dims) = fit_base(goal, options, &mut log, on_iteration)?;
+    let (stage, base_grid) = fit_base(goal, options, &mut log, on_iteration)?;
     let base = stage.implicit;
     let clock = Instant::now();
     let grid = *goal.grid();
-    let points: Vec<DVec3> = goal.surface().par_iter().map(|&p| grid.to_world(p)).collect();
     let voxel = grid.voxel_size;
+    let points: Vec<DVec3> = goal.surface().par_iter().map(|&p| grid.to_world(p)).collect();
     let mut residual: Vec<f64> = base.values(&points).into_iter().map(|v| -v / voxel).collect();
+    let base_e = f64::from(stage.metrics.max_error_subvoxel) * base_grid.1 / voxel;
+    let band = (base_e + 2.0).clamp(3.0, options.levels.first_radius * base_grid.1 / voxel);
+    let mut off = OffSurface::new(goal, &base, band);
     let (base_max, base_p999) = error_figures(&residual);
     let mut levels = Vec::new();
     let mut reports = Vec::new();
     let target = f64::from(options.target_error);
     for k in 0..options.levels.max_levels {
-        let radius = options.levels.first_radius * base_dims.1 / f64::from(1u32 << k.min(30));
+        let radius = options.levels.first_radius * base_grid.1 / f64::from(1u32 << k.min(30));
+        let wrong = off.wrong_sides();
         let (max, _) = error_figures(&residual);
-        if max <= target || radius < options.levels.min_radius * voxel {
+        if (max <= target && wrong.is_empty()) || radius < options.levels.min_radius * voxel {
             break;
         }
         let level_clock = Instant::now();
-        let chosen = choose_centres(&points, &residual, radius, target, &options.levels);
+        let mut candidates = points.clone();
+        candidates.extend(wrong.iter().map(|w| w.0));
+        let mut errors = residual.clone();
+        errors.extend(wrong.iter().map(|w| w.1));
+        let chosen = choose_centres(&candidates, &errors, radius, target, &options.levels);
         if chosen.is_empty() {
             break;
         }
-        let centres: Vec<DVec3> = chosen.iter().map(|&i| points[i]).collect();
-        let values: Vec<f64> = chosen.iter().map(|&i| residual[i] * voxel).collect();
+        let centres: Vec<DVec3> = chosen.iter().map(|&i| candidates[i]).collect();
+        let values: Vec<f64> = chosen.iter().map(|&i| errors[i] * voxel).collect();
         let (level, solve) = DetailLevel::interpolate(radius, centres, &values)?;
         residual.par_iter_mut().zip(&points).for_each(|(r, &p)| *r -= level.value(p) / voxel);
+        off.add(&level);
         let (max_error_voxels, p999_error_voxels) = error_figures(&residual);
         reports.push(LevelReport {
             radius_voxels: radius / voxel,
@@ -193,6 +218,7 @@ pub fn fit(
             solve_residual: solve.residual,
             max_error_voxels,
             p999_error_voxels,
+            wrong_side_voxels: wrong.len(),
             seconds: level_clock.elapsed().as_secs_f64(),
         });
         levels.push(level);
@@ -208,7 +234,10 @@ pub fn fit(
     log.totals.implicit_evaluation += clock.elapsed().as_secs_f64();
     log.totals.total = started.elapsed().as_secs_f64();
     let levels_report = LevelsReport {
-        base_dims: base_dims.0,
+        base_dims: base_grid.0,
+        band_voxels: band,
+        max_error_subvoxel_voxels: metrics.max_error_subvoxel,
+        rms_error_subvoxel_voxels: metrics.rms_error_subvoxel,
         base_centres: base.len(),
         base_bytes: base.len() * 16,
         base_max_error_voxels: base_max,
@@ -240,10 +269,76 @@ fn fit_base(
         current = next;
         level = coarser;
     }
-    let base_options = FitOptions { target_error: options.levels.base_target_error, ..level_options };
+    let base_options =
+        FitOptions { target_error: options.levels.base_target_error, ..level_options };
     let stage = super::fit_level(&current.goal, &base_options, level, log, on_iteration)?;
     let grid = current.goal.grid();
     Ok((stage, (grid.dims, grid.voxel_size)))
+}
+
+/// The voxels of the goal's grid whose goal signed distance is between [`SURFACE_BAND`] and a
+/// band's width: where the model must have the goal's side. Their model values (in voxels) are
+/// kept up to date as levels are added, their positions computed when needed.
+struct OffSurface<'a> {
+    goal: &'a Goal,
+    voxels: Vec<u32>,
+    values: Vec<f32>,
+}
+
+/// Voxels closer than this to the goal's surface (in voxels) are left to the surface points:
+/// their sides follow the sub-voxel position of the surface.
+const SURFACE_BAND: f32 = 1.5;
+
+impl<'a> OffSurface<'a> {
+    fn new(goal: &'a Goal, base: &Implicit, band: f64) -> OffSurface<'a> {
+        let band = band as f32;
+        let voxels: Vec<u32> = (0..goal.sd.data.len())
+            .into_par_iter()
+            .filter(|&i| (SURFACE_BAND..=band).contains(&goal.sd.data[i].abs()))
+            .map(|i| i as u32)
+            .collect();
+        let mut off = OffSurface { goal, voxels, values: Vec::new() };
+        let voxel = goal.grid().voxel_size;
+        off.values = off
+            .voxels
+            .par_chunks(1 << 16)
+            .flat_map_iter(|chunk| {
+                let points: Vec<DVec3> = chunk.iter().map(|&i| off.position(i)).collect();
+                base.values(&points).into_iter().map(move |v| (v / voxel) as f32)
+            })
+            .collect();
+        off
+    }
+
+    fn position(&self, index: u32) -> DVec3 {
+        let grid = self.goal.grid();
+        grid.position(grid.voxel(index as usize))
+    }
+
+    /// The voxels where the model has the wrong side, with what it takes to correct them: the
+    /// goal's signed distance less the model's value, in voxels.
+    fn wrong_sides(&self) -> Vec<(DVec3, f64)> {
+        self.voxels
+            .par_iter()
+            .zip(&self.values)
+            .filter_map(|(&i, &v)| {
+                let sd = self.goal.sd.data[i as usize];
+                (v * sd <= 0.0).then(|| (self.position(i), f64::from(sd - v)))
+            })
+            .collect()
+    }
+
+    /// Adds `level`'s values.
+    fn add(&mut self, level: &DetailLevel) {
+        let voxel = self.goal.grid().voxel_size;
+        let this = &*self;
+        let added: Vec<f32> = this
+            .voxels
+            .par_iter()
+            .map(|&i| (level.value(this.position(i)) / voxel) as f32)
+            .collect();
+        self.values.iter_mut().zip(added).for_each(|(v, a)| *v += a);
+    }
 }
 
 /// The largest `|r|` and its 99.9th percentile.

@@ -191,7 +191,10 @@ impl DetailLevel {
         weights: Vec<f64>,
     ) -> Result<DetailLevel> {
         if !(radius.is_finite() && radius > 0.0) {
-            return Err(Error::invalid(context, format!("support radius {radius} is not positive")));
+            return Err(Error::invalid(
+                context,
+                format!("support radius {radius} is not positive"),
+            ));
         }
         if centres.len() != weights.len() {
             return Err(Error::invalid(
@@ -232,8 +235,7 @@ impl DetailLevel {
         level.weights = weights;
         let fitted = matrix.product(&level.weights);
         let largest = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let worst =
-            fitted.iter().zip(values).map(|(f, v)| (f - v).abs()).fold(0.0f64, f64::max);
+        let worst = fitted.iter().zip(values).map(|(f, v)| (f - v).abs()).fold(0.0f64, f64::max);
         let residual = if largest > 0.0 { worst / largest } else { worst };
         Ok((level, SparseSolve { iterations, entries: matrix.values.len(), residual }))
     }
@@ -365,7 +367,7 @@ fn conjugate_gradients(a: &SparseMatrix, b: &[f64]) -> Option<(Vec<f64>, usize)>
         }
         let ap = a.product(&p);
         let pap = dot(&p, &ap);
-        if !(pap > 0.0) {
+        if pap.is_nan() || pap <= 0.0 {
             return None;
         }
         let alpha = rr / pap;
