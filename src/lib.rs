@@ -82,6 +82,7 @@
 //! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
 //! | error metrics E, Ew, RMS and the radius of regularity | [`metrics`] | 4.3 |
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
+//! | detail levels of compactly supported functions over the fit | [`levels`] | |
 //! | a mesh to a fitted model in one call | [`pipeline`] | |
 //! | the shapes a model holds; save and load models | [`shape`], [`model`] | |
 //! | a 2D goal from a PNG image | [`goal2d`] | 4.3 |
@@ -104,6 +105,7 @@ pub mod fit;
 pub mod geometry;
 pub mod goal2d;
 pub mod grid;
+pub mod levels;
 pub mod memory;
 pub mod mesh;
 pub mod mesh_distance;

@@ -145,6 +145,15 @@ impl Estimate {
         }
     }
 
+    /// Detail levels fitted at `points` surface points of the goal, beyond the fit's grids
+    /// ([`crate::fit::levels::BYTES_PER_POINT`] a point).
+    pub fn levels(points: usize) -> Estimate {
+        Estimate {
+            bytes: (points as u64).saturating_mul(crate::fit::levels::BYTES_PER_POINT),
+            what: format!("detail levels at {points} surface points"),
+        }
+    }
+
     /// A picture of `width` x `height` pixels.
     pub fn picture(width: usize, height: usize) -> Estimate {
         let pixels = (width as u64).saturating_mul(height as u64);

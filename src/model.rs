@@ -6,7 +6,7 @@
 //! ```text
 //! {
 //!   "format": "implicitize-model",
-//!   "version": 1,
+//!   "version": 1 | 2,                         // 2 when the shape has detail levels
 //!   "sign": "inside positive, outside negative",
 //!   "bounds": { "min": [x, y, z], "max": [x, y, z] },      // the shape, in the mesh's units
 //!   "grid": { "dims": [..], "origin": [..], "voxel_size": h } | null,  // the fit's grid
@@ -42,6 +42,25 @@
 //!   }
 //! ```
 //!
+//! A shape with detail levels (version 2, [`crate::levels`]) holds its level 0, an `rbf`
+//! shape as above, and its levels, coarsest first:
+//!
+//! ```text
+//!   "shape": {
+//!     "type": "levels",
+//!     "base": { "kernel": "r2logr", "dimension": 3, "centres": ..., ... },   // as "rbf"
+//!     "levels": [
+//!       { "radius": rho, "centres": [[x, y, z], ...], "weights": [w, ...] },  // mesh units
+//!       ...
+//!     ]
+//!   }
+//! ```
+//!
+//! Its value is level 0's plus `sum_j w_j psi(|x - c_j| / rho)` of each level, `psi` Wendland's
+//! C2 function (see [`crate::rbf::wendland`]). A file is written as version 1 when its shape
+//! has no levels, so that builds that only read version 1 still read it; both versions are
+//! read, and a version 1 file with levels is refused.
+//!
 //! Each child's values are divided by its `scale` (its distance scale, see [`crate::csg`])
 //! before the operation; the top-level `bounds` hold the composite's inside and `grid` is null.
 //! A child keeps only its shape and bounds: its fit grid and report stay in its own file.
@@ -64,14 +83,19 @@ use crate::error::{Error, Location, Result};
 use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
 use crate::grid::Grid;
-use crate::rbf::{Constraint, ConstraintKind, Implicit, Kernel, Normalization};
+use crate::levels::MultiScale;
+use crate::rbf::{Constraint, ConstraintKind, DetailLevel, Implicit, Kernel, Normalization};
 use crate::shape::Shape;
 
 /// The `format` field of every model file.
 pub const FORMAT: &str = "implicitize-model";
 
-/// The version of the format this crate writes and reads.
-pub const VERSION: u32 = 1;
+/// The newest version of the format, which this crate writes for shapes with detail levels;
+/// shapes without are written as version 1. Both are read.
+pub const VERSION: u32 = 2;
+
+/// The version of the format before detail levels.
+const VERSION_WITHOUT_LEVELS: u32 = 1;
 
 /// The `sign` field: the sign convention of every value the model gives.
 pub const SIGN: &str = "inside positive, outside negative";
@@ -89,6 +113,18 @@ impl Model {
     /// A model of `implicit`, whose shape lies in `bounds` (mesh units), fitted on `grid`.
     pub fn from_implicit(implicit: Implicit, bounds: Aabb, grid: Option<Grid>) -> Model {
         Model { shape: Shape::Rbf(implicit), bounds, grid, report: None }
+    }
+
+    /// A model of `levels`, a function with detail levels, whose shape lies in `bounds` (mesh
+    /// units), fitted on `grid` (the grid asked for, whose voxels its errors are stated in).
+    pub fn from_levels(levels: MultiScale, bounds: Aabb, grid: Option<Grid>) -> Model {
+        Model { shape: Shape::Levels(levels), bounds, grid, report: None }
+    }
+
+    /// A model of `shape` (a variational implicit function, with or without detail levels),
+    /// whose shape lies in `bounds`, fitted on `grid`.
+    pub(crate) fn from_shape(shape: Shape, bounds: Aabb, grid: Option<Grid>) -> Model {
+        Model { shape, bounds, grid, report: None }
     }
 
     /// A model of `composite`, whose bounds are [`Composite::bounds`]; it has no grid.
@@ -140,7 +176,7 @@ impl Model {
     pub fn to_json(&self) -> String {
         let file = ModelFile {
             format: FORMAT.into(),
-            version: VERSION,
+            version: if self.shape.has_levels() { VERSION } else { VERSION_WITHOUT_LEVELS },
             sign: SIGN.into(),
             bounds: BoundsFile::of(&self.bounds),
             grid: self.grid,
@@ -179,12 +215,14 @@ impl Model {
                 format!("not an implicitize model (\"format\" is not \"{FORMAT}\")"),
             ));
         }
-        if header.version != Some(u64::from(VERSION)) {
+        let version = header.version.filter(|&v| (1..=u64::from(VERSION)).contains(&v));
+        if version.is_none() {
             return Err(Error::parse(
                 path,
                 None,
                 format!(
-                    "model format version {} is not supported; this build reads version {VERSION}",
+                    "model format version {} is not supported; this build reads versions 1 to \
+                     {VERSION}",
                     header.version.map_or("(missing)".into(), |v| v.to_string())
                 ),
             ));
@@ -199,6 +237,13 @@ impl Model {
         }
         let context = path.display().to_string();
         let shape = file.shape.into_shape(&context)?;
+        if shape.has_levels() && file.version == VERSION_WITHOUT_LEVELS {
+            return Err(Error::parse(
+                path,
+                None,
+                format!("detail levels in a version {VERSION_WITHOUT_LEVELS} model file"),
+            ));
+        }
         let bounds = file.bounds.into_aabb(&context)?;
         Ok(Model { shape, bounds, grid: file.grid, report: file.report })
     }
@@ -284,6 +329,7 @@ impl BoundsFile {
 enum ShapeFile {
     Rbf(RbfFile),
     Csg(CsgFile),
+    Levels(LevelsFile),
 }
 
 impl ShapeFile {
@@ -291,6 +337,7 @@ impl ShapeFile {
         match shape {
             Shape::Rbf(implicit) => ShapeFile::Rbf(RbfFile::of(implicit)),
             Shape::Csg(composite) => ShapeFile::Csg(CsgFile::of(composite)),
+            Shape::Levels(levels) => ShapeFile::Levels(LevelsFile::of(levels)),
         }
     }
 
@@ -299,7 +346,55 @@ impl ShapeFile {
         Ok(match self {
             ShapeFile::Rbf(rbf) => Shape::Rbf(rbf.into_implicit(context)?),
             ShapeFile::Csg(csg) => Shape::Csg(csg.into_composite(context)?),
+            ShapeFile::Levels(levels) => Shape::Levels(levels.into_levels(context)?),
         })
+    }
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LevelsFile {
+    base: RbfFile,
+    levels: Vec<LevelFile>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LevelFile {
+    radius: f64,
+    centres: Vec<[f64; 3]>,
+    weights: Vec<f64>,
+}
+
+impl LevelsFile {
+    fn of(levels: &MultiScale) -> LevelsFile {
+        LevelsFile {
+            base: RbfFile::of(levels.base()),
+            levels: levels
+                .levels()
+                .iter()
+                .map(|l| LevelFile {
+                    radius: l.radius(),
+                    centres: l.centres().iter().map(|c| c.to_array()).collect(),
+                    weights: l.weights().to_vec(),
+                })
+                .collect(),
+        }
+    }
+
+    fn into_levels(self, context: &str) -> Result<MultiScale> {
+        let base = self.base.into_implicit(&format!("{context}: level 0"))?;
+        let levels = self
+            .levels
+            .into_iter()
+            .enumerate()
+            .map(|(i, l)| {
+                let here = format!("{context}: level {}", i + 1);
+                let centres = l.centres.into_iter().map(DVec3::from_array).collect();
+                DetailLevel::new(&here, l.radius, centres, l.weights)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        MultiScale::new(context, base, levels)
     }
 }
 

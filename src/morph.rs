@@ -283,8 +283,9 @@ fn space_time(
             return Err(Error::invalid(
                 "morph",
                 format!(
-                    "{name} is not a fitted variational implicit function (a CSG composite?); \
-                     the variational method needs its constraints, the blend method does not"
+                    "{name} is not a fitted variational implicit function (a CSG composite, or \
+                     one with detail levels, which it cannot read yet?); the variational method \
+                     needs its constraints, the blend method does not"
                 ),
             ));
         }

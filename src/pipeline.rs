@@ -48,6 +48,7 @@ use crate::mesh_distance::{self, MeshDistance, Nearest};
 use crate::model::Model;
 use crate::rbf::{Implicit, Isa};
 use crate::sample::Samples;
+use crate::shape::Shape;
 use crate::voxelize::{self, Inside, VoxelizeOptions};
 
 /// How the constraints of a fit are made.
@@ -640,11 +641,22 @@ impl<'a> Prepared<'a> {
         };
         let allowed = self.constraints_within_memory(requested);
         options.max_constraints = Some(allowed);
-        let fitted = match self.options.method {
-            Method::Iterative => fit::fit(&self.goal, &options, on_iteration)?,
-            Method::Naive => fit::naive::fit(self.mesh, &self.goal, &options)?,
+        let (shape, mut report) = match self.options.method {
+            Method::Iterative if fit::levels::applies(&self.goal, &options) => {
+                self.levels_estimate().check(self.limit, || None)?;
+                let mut on_iteration = on_iteration;
+                let fitted = fit::levels::fit(&self.goal, &options, &mut on_iteration)?;
+                (fitted.shape, fitted.report)
+            }
+            Method::Iterative => {
+                let fitted = fit::fit(&self.goal, &options, on_iteration)?;
+                (Shape::Rbf(fitted.implicit), fitted.report)
+            }
+            Method::Naive => {
+                let fitted = fit::naive::fit(self.mesh, &self.goal, &options)?;
+                (Shape::Rbf(fitted.implicit), fitted.report)
+            }
         };
-        let mut report = fitted.report;
         if allowed < requested
             && report.termination == (Termination::ConstraintLimit { limit: allowed })
         {
@@ -653,8 +665,15 @@ impl<'a> Prepared<'a> {
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
         report.winding_near_half = Some(self.inside.winding_near_half);
-        let model = Model::from_implicit(fitted.implicit, self.bounds, Some(*self.goal.grid()));
+        let model = Model::from_shape(shape, self.bounds, Some(*self.goal.grid()));
         Ok(Fitted { model, report, inside: self.inside })
+    }
+
+    /// The memory a fit with detail levels holds: its grids and the levels (see
+    /// [`Estimate::levels`]).
+    fn levels_estimate(&self) -> Estimate {
+        let grids = Estimate::fit(self.goal.grid().dims, self.mesh.triangles.len());
+        Estimate::levels(self.goal.surface().len()).plus(&grids)
     }
 
     /// The most constraints, up to `requested`, whose solve fits in the memory limit beside the

@@ -167,6 +167,7 @@ impl Emitter {
         match shape {
             Shape::Rbf(implicit) => self.rbf(implicit),
             Shape::Csg(composite) => self.csg(composite),
+            Shape::Levels(_) => unreachable!("`check` refuses models with detail levels"),
         }
     }
 
@@ -422,6 +423,13 @@ fn check(model: &Model, name: &str) -> Result<()> {
             format!("a {}D model has no function of a 3D point to export", model.dim()),
         ));
     }
+    if model.shape().has_levels() {
+        return Err(Error::invalid(
+            name,
+            "a model with detail levels cannot be exported to a shader yet (levels are read by \
+             eval, mesh and render); fit it with `--levels 0` for a shader",
+        ));
+    }
     if !numbers_fit(model.shape()) {
         return Err(Error::invalid(
             name,
@@ -447,6 +455,7 @@ fn numbers_fit(shape: &Shape) -> bool {
                     .iter()
                     .all(|child| finite(child.scale()) && numbers_fit(child.shape()))
         }
+        Shape::Levels(_) => unreachable!("`check` refuses models with detail levels"),
     }
 }
 
@@ -549,6 +558,7 @@ fn header(model: &Model, name: &str, lang: Language, storage: Storage) -> String
             c.operation(),
             c.children().len()
         ),
+        Shape::Levels(_) => unreachable!("`check` refuses models with detail levels"),
     };
     let storage = match storage {
         Storage::Constants => "Its numbers are constants below.",

@@ -1,4 +1,5 @@
-//! The shapes a model can hold: a variational implicit function, or a CSG tree of shapes.
+//! The shapes a model can hold: a variational implicit function, one with detail levels, or a
+//! CSG tree of shapes.
 //!
 //! This is the one place that lists them. A [`crate::Model`] holds a shape with its bounds,
 //! fit grid and report; a CSG child ([`crate::csg::Child`]) holds a shape with its bounds and
@@ -8,6 +9,7 @@
 use crate::csg::Composite;
 use crate::field::Field;
 use crate::geometry::DVec3;
+use crate::levels::MultiScale;
 use crate::rbf::Implicit;
 
 /// The shape a model describes.
@@ -18,6 +20,8 @@ pub enum Shape {
     Rbf(Implicit),
     /// A CSG tree of shapes (see [`crate::csg`]).
     Csg(Composite),
+    /// A variational implicit function with detail levels over it (see [`crate::levels`]).
+    Levels(MultiScale),
 }
 
 impl Shape {
@@ -26,6 +30,7 @@ impl Shape {
         match self {
             Shape::Rbf(implicit) => implicit,
             Shape::Csg(composite) => composite,
+            Shape::Levels(levels) => levels,
         }
     }
 
@@ -34,24 +39,37 @@ impl Shape {
         match self {
             Shape::Rbf(implicit) => implicit.dim(),
             Shape::Csg(composite) => composite.dim(),
+            Shape::Levels(_) => 3,
         }
     }
 
-    /// The variational implicit function, when the shape is one.
+    /// The variational implicit function, when the shape is one (without detail levels).
     pub fn implicit(&self) -> Option<&Implicit> {
         match self {
             Shape::Rbf(implicit) => Some(implicit),
-            Shape::Csg(_) => None,
+            Shape::Csg(_) | Shape::Levels(_) => None,
+        }
+    }
+
+    /// Whether the shape has detail levels anywhere in it (itself or a CSG child): what the
+    /// consumers that do not read them yet refuse.
+    pub fn has_levels(&self) -> bool {
+        match self {
+            Shape::Rbf(_) => false,
+            Shape::Csg(composite) => composite.children().iter().any(|c| c.shape().has_levels()),
+            Shape::Levels(_) => true,
         }
     }
 
     /// The typical gradient magnitude of the shape's function at its surface, in value units
     /// per mesh unit: dividing by it makes values approximate signed distances in mesh units.
-    /// That of the implicit function ([`Implicit::distance_scale`]); a composite is already
-    /// scaled, so its scale is 1.
+    /// That of the implicit function ([`Implicit::distance_scale`]), of level 0 for a shape with
+    /// detail levels (they correct values by a fraction of a voxel's slope); a composite is
+    /// already scaled, so its scale is 1.
     pub fn distance_scale(&self) -> f64 {
         match self {
             Shape::Rbf(implicit) => implicit.distance_scale(),
+            Shape::Levels(levels) => levels.base().distance_scale(),
             Shape::Csg(_) => 1.0,
         }
     }

@@ -113,7 +113,7 @@ type Edit = dyn FnOnce(&mut serde_json::Value);
 #[test]
 fn wrong_files_and_versions_are_named_errors() {
     let cases: Vec<(Box<Edit>, &str)> = vec![
-        (Box::new(|j| j["version"] = 2.into()), "version 2 is not supported"),
+        (Box::new(|j| j["version"] = 3.into()), "version 3 is not supported"),
         (Box::new(|j| j["format"] = "something".into()), "not an implicitize model"),
         (Box::new(|j| j["sign"] = "inside negative".into()), "sign convention"),
         (Box::new(|j| j["shape"]["kernel"] = "gauss".into()), "gauss"),

@@ -21,6 +21,7 @@
 mod coarse;
 mod goal;
 mod init;
+pub mod levels;
 pub mod naive;
 mod refine;
 mod report;
@@ -39,6 +40,7 @@ use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions, SubV
 use crate::rbf::{self, Implicit, Kernel};
 
 pub use goal::Goal;
+pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport};
 pub use report::{ConstraintCounts, FitReport, GridLevel, IterationReport, Termination, Timings};
 
 /// Every threshold of the fit, with the paper's values as defaults where the paper gives one.
@@ -131,6 +133,8 @@ pub struct FitOptions {
     pub kernel: Kernel,
     /// How radii of regularity are measured.
     pub regularity: RegularityOptions,
+    /// Detail levels over the fit on large grids (see `levels.rs`).
+    pub levels: LevelOptions,
 }
 
 impl Default for FitOptions {
@@ -160,6 +164,7 @@ impl Default for FitOptions {
             coarse_max_growth: 0.2,
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
+            levels: LevelOptions::default(),
         }
     }
 }
@@ -265,15 +270,26 @@ pub fn fit(
     let grid = *goal.grid();
     let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
     let stage = fit_level(goal, options, GridLevel::Full, &mut log, &mut on_iteration)?;
-    let Log { per_iteration, mut totals } = log;
-    let metrics = stage.metrics;
-    totals.total = started.elapsed().as_secs_f64();
-    let kept = &per_iteration[stage.best_iteration - 1];
-    let report = FitReport {
+    log.totals.total = started.elapsed().as_secs_f64();
+    let report = report_of(&grid, &stage.metrics, stage.best_iteration, stage.termination, log);
+    Ok(Fit { implicit: stage.implicit, report })
+}
+
+/// The report of a fit on `grid` whose kept model measured `metrics`, from `log`.
+fn report_of(
+    grid: &Grid,
+    metrics: &ErrorMetrics,
+    best_iteration: usize,
+    termination: Termination,
+    log: Log,
+) -> FitReport {
+    let Log { per_iteration, totals } = log;
+    let kept = &per_iteration[best_iteration - 1];
+    FitReport {
         method: "iterative".into(),
         iterations: per_iteration.len(),
-        best_iteration: stage.best_iteration,
-        termination: stage.termination,
+        best_iteration,
+        termination,
         constraints: kept.constraints,
         max_error_voxels: metrics.max_error,
         max_error: f64::from(metrics.max_error) * grid.voxel_size,
@@ -287,8 +303,8 @@ pub fn fit(
         model_bytes: None,
         mesh_bytes: None,
         winding_near_half: None,
-    };
-    Ok(Fit { implicit: stage.implicit, report })
+        levels: None,
+    }
 }
 
 /// The fit on `goal`, at grid `level` of the whole fit: the loop from the initial constraints
@@ -437,14 +453,31 @@ fn measure(
         rbf::evaluate_on_grid(implicit, goal.grid(), Some(&goal.sd))
     };
     timings.implicit_evaluation += clock.elapsed().as_secs_f64();
+    measure_values(goal, &values, options, timings)
+}
 
+/// E, Ew and RMS of any field (such as a multi-scale model) against `goal`, as [`measure`]
+/// measures a model of the loop: evaluated over the goal's grid coarse to fine (5.2).
+fn measure_field<F: Field + ?Sized>(goal: &Goal, field: &F, options: &FitOptions) -> ErrorMetrics {
+    let values = rbf::evaluate_on_grid(field, goal.grid(), Some(&goal.sd));
+    measure_values(goal, &values, options, &mut Timings::default()).metrics
+}
+
+/// Measures the current surface of `values`, a model's values over the goal's grid, against
+/// the goal (4.3).
+fn measure_values(
+    goal: &Goal,
+    values: &Volume<f32>,
+    options: &FitOptions,
+    timings: &mut Timings,
+) -> Measured {
     let clock = Instant::now();
-    let sd_current = current_signed_distance(&values, goal, &options.regularity);
+    let sd_current = current_signed_distance(values, goal, &options.regularity);
     timings.signed_distance += clock.elapsed().as_secs_f64();
 
     let clock = Instant::now();
     let current_boundary = distance::boundary_voxels(&sd_current);
-    let current_fine = SubVoxel { values: &values, level: 0.0, sd: &sd_current, reach: 2.0 };
+    let current_fine = SubVoxel { values, level: 0.0, sd: &sd_current, reach: 2.0 };
     let current_points = current_boundary
         .par_iter()
         .map(|v| current_fine.project(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)))

@@ -69,9 +69,11 @@
 //! sum and the treecode. The dense factorization (`dense.rs`) serves both the direct solve and
 //! the local problems of the Schwarz preconditioner (`schwarz.rs`), which with FGMRES
 //! (`gmres.rs`) makes the iterative solve (`iterative.rs`); `solve.rs` checks the input and
-//! the result and chooses between the two. No module imports one that imports it back
+//! the result and chooses between the two. The compactly supported functions of detail levels
+//! (`compact.rs`) stand apart: their own kernel, index and sparse solve. No module imports one that imports it back
 //! (`tests/rbf_layers.rs`).
 
+mod compact;
 mod csv;
 mod dense;
 mod evaluate;
@@ -90,6 +92,7 @@ use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::geometry::DVec3;
 
+pub use compact::{CG_TOLERANCE, DetailLevel, SparseSolve, wendland};
 pub use csv::{read_constraints, read_constraints_bytes, read_points, read_points_bytes};
 pub use grid::evaluate_on_grid;
 pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};

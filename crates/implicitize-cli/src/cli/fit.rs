@@ -4,7 +4,9 @@
 use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
-use implicitize::fit::{ErrorMeasure, FitOptions, IterationReport, MAX_CONSTRAINTS, naive};
+use implicitize::fit::{
+    ErrorMeasure, FitOptions, IterationReport, LevelOptions, MAX_CONSTRAINTS, naive,
+};
 use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
 use implicitize::{Implicit, mesh, output};
 
@@ -78,6 +80,13 @@ pub struct FitArgs {
     /// makes on grids of 128 voxels or more along their longest axis).
     #[arg(long)]
     pub full_resolution: bool,
+    /// At most this many detail levels: on a grid of LevelOptions' `min_axis` voxels or more
+    /// (384) along its longest axis, level 0 is fitted at a quarter of the resolution and
+    /// levels of compactly supported functions, each half the support of the one before, are
+    /// added on the full grid until E is at most the target; 0 fits one function as the paper
+    /// does
+    #[arg(long, default_value_t = LevelOptions::default().max_levels)]
+    pub levels: usize,
 }
 
 impl FitArgs {
@@ -91,6 +100,7 @@ impl FitArgs {
         };
         self.settings.apply(&mut options.fit);
         options.fit.coarse_start = !self.full_resolution;
+        options.fit.levels.max_levels = self.levels;
         options.memory_limit = memory_limit();
         options
     }

@@ -1,0 +1,471 @@
+//! Detail levels over the paper's fit (see [`crate::levels`]): level 0 is the iterative fit of
+//! paper 5 on the goal at a fraction of the resolution, each further level a sum of Wendland
+//! functions fitted to what the levels below leave on the full grid.
+//!
+//! ```text
+//! level 0 = the loop of paper 5 on the pyramid's coarsest goal (coarse.rs), to its own target
+//! points  = the goal's surface points on the full grid (one per boundary voxel), goal value 0
+//! band    = the voxels whose goal signed distance is between 1.5 and level 0's E + 2 voxels
+//! for k = 1, 2, ... while (max |r| > target or a band voxel has the wrong side)
+//!                   and k <= max_levels and rho_k >= min_radius:
+//!     r       = 0 - F at the points; sd_goal - F at the band voxels on the wrong side (voxels)
+//!     rho_k   = first_radius voxels of level 0 / 2^(k-1)
+//!     centres = points and wrong-side voxels where |r| is largest, greedily, each at least
+//!               spacing x rho_k from the others, among those within rho_k of one whose |r| is
+//!               above hot_fraction x target
+//!     g_k     = the Wendland interpolant of r at its centres (a sparse SPD solve)
+//! ```
+//!
+//! The residual is taken at the goal's surface points, where the goal's signed distance is 0
+//! to sub-voxel precision ([`Goal::surface`]): the value there is how far the model's zero set
+//! lies from that point, in voxels, where the model's slope is one (level 0 interpolates signed
+//! distances, so its slope near the surface is close to one). Away from the surface only the
+//! side matters: a band voxel joins the data only where the model has the wrong side, so that
+//! spurious pieces of level 0's surface within the band are removed without asking the model
+//! to be a distance function there. As in the paper, centres go where the error is worst and
+//! are pruned by spacing (Ohtake, Belyaev and Seidel 2003 space theirs a fraction of the
+//! support apart). The report's E is then measured on the full grid, both ways, as for any fit.
+//!
+//! Level 0 fits on the coarsest goal of the pyramid (512 voxels: 131), where each iteration costs
+//! a sixty-fourth of one on the full grid; `first_radius` (4 of its voxels, 16 of a 512 grid) is
+//! about twice the spacing of its constraints, the scale of what it can miss.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::report::{FitReport, GridLevel, IterationReport, Timings};
+use super::{FitOptions, Goal, Log, coarse};
+use crate::error::Result;
+use crate::field::Field;
+use crate::geometry::DVec3;
+use crate::levels::MultiScale;
+use crate::rbf::{DetailLevel, Implicit};
+use crate::shape::Shape;
+
+/// The settings of detail levels, part of [`FitOptions`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[non_exhaustive]
+pub struct LevelOptions {
+    /// At most this many detail levels; 0 turns them off (the paper's single function on the
+    /// full grid).
+    pub max_levels: usize,
+    /// A 3D grid with at least this many voxels along its longest axis is fitted with levels:
+    /// level 0 on the pyramid's coarsest goal, the levels on the full grid. Smaller grids are
+    /// fitted as the paper fits them, so the defaults (200 voxels) are unchanged.
+    pub min_axis: usize,
+    /// Level 0's target E, in voxels of its own grid (the fit's default target).
+    pub base_target_error: f32,
+    /// The first level's support radius, in voxels of level 0's grid.
+    pub first_radius: f64,
+    /// No level whose support radius would be below this, in voxels of the full grid.
+    pub min_radius: f64,
+    /// Centres of a level are at least this fraction of its support radius apart.
+    pub spacing: f64,
+    /// A point's error is worth correcting above this fraction of the target.
+    pub hot_fraction: f64,
+}
+
+impl Default for LevelOptions {
+    fn default() -> Self {
+        LevelOptions {
+            max_levels: 5,
+            min_axis: 384,
+            base_target_error: 2.0,
+            first_radius: 4.0,
+            min_radius: 1.5,
+            spacing: 0.3,
+            hot_fraction: 0.5,
+        }
+    }
+}
+
+/// The figures of one detail level.
+#[derive(Debug, Clone, Serialize)]
+pub struct LevelReport {
+    /// The support radius, in voxels of the full grid.
+    pub radius_voxels: f64,
+    /// Its centres.
+    pub centres: usize,
+    /// Its size as a compact model: centres x 16 bytes (position and weight in f32).
+    pub bytes: usize,
+    /// Stored entries of its sparse matrix.
+    pub matrix_entries: usize,
+    /// Conjugate gradient iterations of its solve.
+    pub solve_iterations: usize,
+    /// The largest interpolation residual at its centres, relative to the largest value.
+    pub solve_residual: f64,
+    /// The largest error at the goal's surface points with this level, in voxels.
+    pub max_error_voxels: f64,
+    /// The 99.9th percentile of those errors, in voxels.
+    pub p999_error_voxels: f64,
+    /// Voxels of the band where the levels below gave the wrong side, which this level fitted
+    /// to the goal's signed distance.
+    pub wrong_side_voxels: usize,
+    /// Seconds spent on this level.
+    pub seconds: f64,
+}
+
+/// The figures of a multi-scale fit, beside the report of its level 0.
+#[derive(Debug, Clone, Serialize)]
+pub struct LevelsReport {
+    /// Level 0's grid.
+    pub base_dims: [usize; 3],
+    /// Level 0's centres.
+    pub base_centres: usize,
+    /// Level 0's size as a compact model: centres x 16 bytes.
+    pub base_bytes: usize,
+    /// The largest error at the goal's surface points with level 0 alone, in voxels of the
+    /// full grid.
+    pub base_max_error_voxels: f64,
+    /// The 99.9th percentile of those errors.
+    pub base_p999_error_voxels: f64,
+    /// The goal's surface points the levels were fitted at.
+    pub points: usize,
+    /// The band, in voxels of the full grid, of the goal's signed distance in which the side
+    /// of the model is checked: level 0's sub-voxel E plus 2 voxels.
+    pub band_voxels: f64,
+    /// The multi-scale model's sub-voxel E against the goal, both ways, on the full grid.
+    pub max_error_subvoxel_voxels: f32,
+    /// Its RMS sub-voxel error.
+    pub rms_error_subvoxel_voxels: f32,
+    /// Each detail level, coarsest first.
+    pub levels: Vec<LevelReport>,
+}
+
+/// A multi-scale fit: its shape (level 0 alone when it met the target) and report.
+#[derive(Debug, Clone)]
+pub struct LevelledFit {
+    /// [`Shape::Levels`], or [`Shape::Rbf`] when level 0 alone met the target.
+    pub shape: Shape,
+    /// The fit's report, its E measured on the full grid; `levels` is set.
+    pub report: FitReport,
+}
+
+/// Whether a fit on `goal` with `options` has detail levels: levels on, a 3D grid of at least
+/// [`LevelOptions::min_axis`] voxels, and a pyramid below it.
+pub fn applies(goal: &Goal, options: &FitOptions) -> bool {
+    let grid = goal.grid();
+    let longest = grid.dims.iter().copied().max().unwrap_or(0);
+    options.levels.max_levels > 0
+        && !grid.is_2d()
+        && longest >= options.levels.min_axis
+        && coarse::CoarseStart::of(goal, options).is_some()
+}
+
+/// Bytes per goal surface point a multi-scale fit holds beyond the fit's grids: the point, its
+/// residual and error and their copies as candidates, at worst a centre of the finest level
+/// with its sparse row (about pi / spacing^2 neighbours of 12 bytes), index entries and solve
+/// vectors, and the band voxels beside it (index and value, 8 bytes each, at most 2 x 16 of
+/// them, a band being at most `first_radius` voxels of level 0 wide).
+pub const BYTES_PER_POINT: u64 = 900;
+
+/// Level 0 on the pyramid's coarsest goal, then detail levels on `goal` (see the module doc).
+/// `on_iteration` sees level 0's iterations, their errors in voxels of `goal`'s grid.
+///
+/// # Errors
+/// What level 0's solves report.
+pub fn fit(
+    goal: &Goal,
+    options: &FitOptions,
+    on_iteration: &mut impl FnMut(&IterationReport, &Implicit),
+) -> Result<LevelledFit> {
+    let started = Instant::now();
+    let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
+    let (stage, base_grid) = fit_base(goal, options, &mut log, on_iteration)?;
+    let base = stage.implicit;
+    let clock = Instant::now();
+    let grid = *goal.grid();
+    let voxel = grid.voxel_size;
+    let points: Vec<DVec3> = goal.surface().par_iter().map(|&p| grid.to_world(p)).collect();
+    let mut residual: Vec<f64> = base.values(&points).into_iter().map(|v| -v / voxel).collect();
+    let base_e = f64::from(stage.metrics.max_error_subvoxel) * base_grid.1 / voxel;
+    let band = (base_e + 2.0).clamp(3.0, options.levels.first_radius * base_grid.1 / voxel);
+    let mut off = OffSurface::new(goal, &base, band);
+    let (base_max, base_p999) = error_figures(&residual);
+    let mut levels = Vec::new();
+    let mut reports = Vec::new();
+    let target = f64::from(options.target_error);
+    for k in 0..options.levels.max_levels {
+        let radius = options.levels.first_radius * base_grid.1 / f64::from(1u32 << k.min(30));
+        let wrong = off.wrong_sides();
+        let (max, _) = error_figures(&residual);
+        if (max <= target && wrong.is_empty()) || radius < options.levels.min_radius * voxel {
+            break;
+        }
+        let level_clock = Instant::now();
+        let mut candidates = points.clone();
+        candidates.extend(wrong.iter().map(|w| w.0));
+        let mut errors = residual.clone();
+        errors.extend(wrong.iter().map(|w| w.1));
+        let chosen = choose_centres(&candidates, &errors, radius, target, &options.levels);
+        if chosen.is_empty() {
+            break;
+        }
+        let centres: Vec<DVec3> = chosen.iter().map(|&i| candidates[i]).collect();
+        let values: Vec<f64> = chosen.iter().map(|&i| errors[i] * voxel).collect();
+        let (level, solve) = DetailLevel::interpolate(radius, centres, &values)?;
+        residual.par_iter_mut().zip(&points).for_each(|(r, &p)| *r -= level.value(p) / voxel);
+        off.add(&level);
+        let (max_error_voxels, p999_error_voxels) = error_figures(&residual);
+        reports.push(LevelReport {
+            radius_voxels: radius / voxel,
+            centres: chosen.len(),
+            bytes: chosen.len() * 16,
+            matrix_entries: solve.entries,
+            solve_iterations: solve.iterations,
+            solve_residual: solve.residual,
+            max_error_voxels,
+            p999_error_voxels,
+            wrong_side_voxels: wrong.len(),
+            seconds: level_clock.elapsed().as_secs_f64(),
+        });
+        levels.push(level);
+    }
+    log.totals.misc += clock.elapsed().as_secs_f64();
+    let shape = if levels.is_empty() {
+        Shape::Rbf(base.clone())
+    } else {
+        Shape::Levels(MultiScale::new("the fit", base.clone(), levels)?)
+    };
+    let clock = Instant::now();
+    let metrics = super::measure_field(goal, &shape, options);
+    log.totals.implicit_evaluation += clock.elapsed().as_secs_f64();
+    log.totals.total = started.elapsed().as_secs_f64();
+    let levels_report = LevelsReport {
+        base_dims: base_grid.0,
+        band_voxels: band,
+        max_error_subvoxel_voxels: metrics.max_error_subvoxel,
+        rms_error_subvoxel_voxels: metrics.rms_error_subvoxel,
+        base_centres: base.len(),
+        base_bytes: base.len() * 16,
+        base_max_error_voxels: base_max,
+        base_p999_error_voxels: base_p999,
+        points: points.len(),
+        levels: reports,
+    };
+    let mut report =
+        super::report_of(&grid, &metrics, stage.best_iteration, stage.termination, log);
+    report.levels = Some(levels_report);
+    Ok(LevelledFit { shape, report })
+}
+
+/// Level 0: the loop of paper 5 on the coarsest goal of `goal`'s pyramid, with its own target
+/// ([`LevelOptions::base_target_error`]); the stage, and that goal's dims and voxel size.
+fn fit_base(
+    goal: &Goal,
+    options: &FitOptions,
+    log: &mut Log,
+    on_iteration: &mut impl FnMut(&IterationReport, &Implicit),
+) -> Result<(super::Stage, ([usize; 3], f64))> {
+    let mut current = coarse::CoarseStart::of(goal, options).expect("`applies` checked it");
+    let mut level_options = current.options(options);
+    let mut level = GridLevel::Half;
+    while let (Some(next), Some(coarser)) =
+        (coarse::CoarseStart::of(&current.goal, &level_options), level.coarser())
+    {
+        level_options = next.options(&level_options);
+        current = next;
+        level = coarser;
+    }
+    let base_options =
+        FitOptions { target_error: options.levels.base_target_error, ..level_options };
+    let stage = super::fit_level(&current.goal, &base_options, level, log, on_iteration)?;
+    let grid = current.goal.grid();
+    Ok((stage, (grid.dims, grid.voxel_size)))
+}
+
+/// The voxels of the goal's grid whose goal signed distance is between [`SURFACE_BAND`] and a
+/// band's width: where the model must have the goal's side. Their model values (in voxels) are
+/// kept up to date as levels are added, their positions computed when needed.
+struct OffSurface<'a> {
+    goal: &'a Goal,
+    voxels: Vec<u32>,
+    values: Vec<f32>,
+}
+
+/// Voxels closer than this to the goal's surface (in voxels) are left to the surface points:
+/// their sides follow the sub-voxel position of the surface.
+const SURFACE_BAND: f32 = 1.5;
+
+impl<'a> OffSurface<'a> {
+    fn new(goal: &'a Goal, base: &Implicit, band: f64) -> OffSurface<'a> {
+        let band = band as f32;
+        let voxels: Vec<u32> = (0..goal.sd.data.len())
+            .into_par_iter()
+            .filter(|&i| (SURFACE_BAND..=band).contains(&goal.sd.data[i].abs()))
+            .map(|i| i as u32)
+            .collect();
+        let mut off = OffSurface { goal, voxels, values: Vec::new() };
+        let voxel = goal.grid().voxel_size;
+        off.values = off
+            .voxels
+            .par_chunks(1 << 16)
+            .flat_map_iter(|chunk| {
+                let points: Vec<DVec3> = chunk.iter().map(|&i| off.position(i)).collect();
+                base.values(&points).into_iter().map(move |v| (v / voxel) as f32)
+            })
+            .collect();
+        off
+    }
+
+    fn position(&self, index: u32) -> DVec3 {
+        let grid = self.goal.grid();
+        grid.position(grid.voxel(index as usize))
+    }
+
+    /// The voxels where the model has the wrong side, with what it takes to correct them: the
+    /// goal's signed distance less the model's value, in voxels.
+    fn wrong_sides(&self) -> Vec<(DVec3, f64)> {
+        self.voxels
+            .par_iter()
+            .zip(&self.values)
+            .filter_map(|(&i, &v)| {
+                let sd = self.goal.sd.data[i as usize];
+                (v * sd <= 0.0).then(|| (self.position(i), f64::from(sd - v)))
+            })
+            .collect()
+    }
+
+    /// Adds `level`'s values.
+    fn add(&mut self, level: &DetailLevel) {
+        let voxel = self.goal.grid().voxel_size;
+        let this = &*self;
+        let added: Vec<f32> = this
+            .voxels
+            .par_iter()
+            .map(|&i| (level.value(this.position(i)) / voxel) as f32)
+            .collect();
+        self.values.iter_mut().zip(added).for_each(|(v, a)| *v += a);
+    }
+}
+
+/// The largest `|r|` and its 99.9th percentile.
+fn error_figures(residual: &[f64]) -> (f64, f64) {
+    let mut errors: Vec<f64> = residual.par_iter().map(|r| r.abs()).collect();
+    if errors.is_empty() {
+        return (0.0, 0.0);
+    }
+    let rank = ((errors.len() - 1) as f64 * 0.999).round() as usize;
+    let (_, p999, _) = errors.select_nth_unstable_by(rank, f64::total_cmp);
+    let p999 = *p999;
+    (errors.iter().copied().fold(0.0, f64::max), p999)
+}
+
+/// The points a level of support `radius` interpolates: greatest `|residual|` first, each at
+/// least `spacing x radius` from those chosen before, among the points within `radius` of a
+/// point whose error is above `hot_fraction x target` (so the level also holds its
+/// neighbourhood at its residual and spills less onto points that were right).
+fn choose_centres(
+    points: &[DVec3],
+    residual: &[f64],
+    radius: f64,
+    target: f64,
+    options: &LevelOptions,
+) -> Vec<usize> {
+    let hot: Vec<DVec3> = (0..points.len())
+        .filter(|&i| residual[i].abs() > options.hot_fraction * target)
+        .map(|i| points[i])
+        .collect();
+    let near_hot = PointSet::new(radius, &hot);
+    let mut order: Vec<usize> =
+        (0..points.len()).into_par_iter().filter(|&i| near_hot.any_within(points[i])).collect();
+    order.par_sort_unstable_by(|&a, &b| residual[b].abs().total_cmp(&residual[a].abs()));
+    let spacing = options.spacing * radius;
+    let mut chosen = PointSet::new(spacing, &[]);
+    let mut picked = Vec::new();
+    for i in order {
+        if !chosen.any_within(points[i]) {
+            chosen.insert(points[i]);
+            picked.push(i);
+        }
+    }
+    picked
+}
+
+/// Points in a hash grid of cells of side `reach`, asked whether any lies within `reach`.
+struct PointSet {
+    reach: f64,
+    cells: std::collections::HashMap<[i64; 3], Vec<DVec3>>,
+}
+
+impl PointSet {
+    fn new(reach: f64, points: &[DVec3]) -> PointSet {
+        let mut set = PointSet { reach, cells: Default::default() };
+        for &p in points {
+            set.insert(p);
+        }
+        set
+    }
+
+    fn cell(&self, p: DVec3) -> [i64; 3] {
+        (p / self.reach).floor().as_i64vec3().to_array()
+    }
+
+    fn insert(&mut self, p: DVec3) {
+        let key = self.cell(p);
+        self.cells.entry(key).or_default().push(p);
+    }
+
+    fn any_within(&self, p: DVec3) -> bool {
+        let [x, y, z] = self.cell(p);
+        let reach2 = self.reach * self.reach;
+        (x - 1..=x + 1).any(|i| {
+            (y - 1..=y + 1).any(|j| {
+                (z - 1..=z + 1).any(|k| {
+                    self.cells
+                        .get(&[i, j, k])
+                        .is_some_and(|list| list.iter().any(|q| q.distance_squared(p) < reach2))
+                })
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::{Grid, Volume};
+
+    fn goal(longest: usize) -> Goal {
+        let grid = Grid { dims: [longest, 6, 5], origin: [0.0; 3], voxel_size: 1.0 };
+        Goal::from_density(Volume::filled(grid, 0.0f32), &Default::default())
+    }
+
+    /// The defaults (200 voxels) fit as the paper does; 512 voxels have levels unless they are
+    /// turned off or every iteration runs on the full grid.
+    #[test]
+    fn levels_apply_from_the_minimum_axis_and_can_be_turned_off() {
+        let options = FitOptions::default();
+        assert!(!applies(&goal(200), &options));
+        assert!(!applies(&goal(383), &options));
+        assert!(applies(&goal(512), &options));
+        let mut off = options.clone();
+        off.levels.max_levels = 0;
+        assert!(!applies(&goal(512), &off));
+        let mut full = options.clone();
+        full.coarse_start = false;
+        assert!(!applies(&goal(512), &full));
+    }
+
+    /// Centres go to the largest errors first, a fraction of the radius apart, and only near
+    /// errors above the hot fraction of the target.
+    #[test]
+    fn centres_are_chosen_greatest_error_first_and_spaced() {
+        let points: Vec<DVec3> = (0..100).map(|i| DVec3::new(i as f64 * 0.25, 0.0, 0.0)).collect();
+        // An error of 3 at x = 5, falling off linearly, and nothing beyond x = 10.
+        let residual: Vec<f64> =
+            points.iter().map(|p| (3.0 - (p.x - 5.0).abs() * 0.6).max(0.0)).collect();
+        let options = LevelOptions::default();
+        let chosen = choose_centres(&points, &residual, 4.0, 1.0, &options);
+        assert_eq!(chosen[0], 20, "the largest error first");
+        for (a, &i) in chosen.iter().enumerate() {
+            for &j in &chosen[..a] {
+                assert!(points[i].distance(points[j]) >= 1.2 - 1e-12);
+            }
+            // Within the radius (4) of a point whose error is above 0.5.
+            assert!(points[i].x > 0.8 - 4.0 && points[i].x < 9.2 + 4.0, "{}", points[i]);
+        }
+    }
+}

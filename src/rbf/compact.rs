@@ -1,0 +1,485 @@
+//! Compactly supported radial basis functions: Wendland's C2 function, a uniform grid index of
+//! the supports, local evaluation and the sparse interpolation solve of one detail level.
+//!
+//! A detail level (see [`crate::levels`]) is `g(x) = sum_j w_j psi_rho(|x - c_j|)` with
+//!
+//! ```text
+//! psi_rho(r) = (1 - r/rho)^4 (4 r/rho + 1)   for r < rho,   0 beyond,
+//! ```
+//!
+//! Wendland's C2 function, positive definite in 3D (Wendland 1995), so interpolation at distinct
+//! centres has a unique solution and its matrix `A_ij = psi_rho(|c_i - c_j|)` is symmetric
+//! positive definite and sparse: each row holds only the centres within `rho`. Unlike the global
+//! kernels of [`super::Kernel`], it carries a length (its support radius), needs no polynomial
+//! and is only used in 3D, so it is its own type rather than an arm of the (dimension, kernel)
+//! dispatch, whose loops sum every centre.
+//!
+//! ## Guarantees
+//! * [`DetailLevel::value`] and [`DetailLevel::gradient`] read only the centres whose support
+//!   covers the point, through a hash grid of cells of side `rho` in which each centre is listed
+//!   in every cell its support meets: one cell is looked up per point. They equal the sums over
+//!   every centre ([`DetailLevel::value_brute_force`]) up to rounding, since a centre left out
+//!   contributes exactly zero.
+//! * [`DetailLevel::interpolate`] solves the sparse system by conjugate gradients (the diagonal
+//!   is 1, `psi(0)`, so Jacobi preconditioning would change nothing) to a residual of at most
+//!   [`CG_TOLERANCE`] of the values' norm, and reports the largest interpolation residual
+//!   relative to the largest |value|, measured after the solve.
+//! * Positions and values are f64; centres are assumed distinct (the fit spaces them a fraction
+//!   of `rho` apart), which positive definiteness needs.
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::geometry::DVec3;
+
+/// `psi_rho(r)` given `t = r / rho`: Wendland's C2 function, 1 at 0, 0 from 1 on.
+#[inline]
+pub fn wendland(t: f64) -> f64 {
+    if t >= 1.0 {
+        return 0.0;
+    }
+    let s = 1.0 - t;
+    let s2 = s * s;
+    s2 * s2 * (4.0 * t + 1.0)
+}
+
+/// `psi'(r) / r` times `rho^2`, given `t = r / rho`: the gradient of `psi_rho(|x - c|)` is this
+/// divided by `rho^2`, times `x - c`. Zero from `t = 1` on; `-20` at the centre.
+#[inline]
+fn wendland_slope(t: f64) -> f64 {
+    if t >= 1.0 {
+        return 0.0;
+    }
+    let s = 1.0 - t;
+    -20.0 * s * s * s
+}
+
+/// The conjugate gradient iterations stop once the residual's norm is at most this fraction of
+/// the values' norm.
+pub const CG_TOLERANCE: f64 = 1e-10;
+
+/// The conjugate gradient iterations stop after this many in any case (the systems the fit
+/// makes need tens to a few hundred).
+const CG_MAX_ITERATIONS: usize = 5000;
+
+/// A hasher for cell keys: a multiply and a rotate per word, enough for keys that are small
+/// integer triples (std's default SipHash costs several times more per lookup).
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+
+    fn write_i64(&mut self, v: i64) {
+        self.write_u64(v as u64);
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(21) ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+type Cells<V> = HashMap<[i64; 3], V, BuildHasherDefault<CellHasher>>;
+
+/// The cell of side `side` holding `p`.
+#[inline]
+fn cell_of(p: DVec3, side: f64) -> [i64; 3] {
+    (p / side).floor().as_i64vec3().to_array()
+}
+
+/// A uniform grid over the supports of centres of one radius: cells of side `rho`, each listing
+/// every centre whose support ball meets it (at most 27 cells per centre), so the centres that
+/// can cover a point are those of its one cell.
+#[derive(Debug, Clone)]
+struct SupportIndex {
+    side: f64,
+    /// Each cell's range in `entries`.
+    cells: Cells<(u32, u32)>,
+    entries: Vec<u32>,
+}
+
+impl SupportIndex {
+    fn new(centres: &[DVec3], rho: f64) -> SupportIndex {
+        let mut lists: Cells<Vec<u32>> = Cells::default();
+        for (j, &c) in centres.iter().enumerate() {
+            let lo = cell_of(c - DVec3::splat(rho), rho);
+            let hi = cell_of(c + DVec3::splat(rho), rho);
+            for x in lo[0]..=hi[0] {
+                for y in lo[1]..=hi[1] {
+                    for z in lo[2]..=hi[2] {
+                        if box_distance2(c, [x, y, z], rho) < rho * rho {
+                            lists.entry([x, y, z]).or_default().push(j as u32);
+                        }
+                    }
+                }
+            }
+        }
+        let mut cells = Cells::default();
+        let mut entries = Vec::with_capacity(lists.values().map(Vec::len).sum());
+        for (key, list) in lists {
+            let start = entries.len() as u32;
+            entries.extend(list);
+            cells.insert(key, (start, entries.len() as u32));
+        }
+        SupportIndex { side: rho, cells, entries }
+    }
+
+    /// The centres whose support may cover `p`: every one that does, and a few more.
+    #[inline]
+    fn near(&self, p: DVec3) -> &[u32] {
+        match self.cells.get(&cell_of(p, self.side)) {
+            Some(&(start, end)) => &self.entries[start as usize..end as usize],
+            None => &[],
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        self.entries.len() * 4 + self.cells.len() * 40
+    }
+}
+
+/// The squared distance from `c` to the cell `key` of side `side`.
+fn box_distance2(c: DVec3, key: [i64; 3], side: f64) -> f64 {
+    let lo = DVec3::new(key[0] as f64, key[1] as f64, key[2] as f64) * side;
+    let hi = lo + DVec3::splat(side);
+    let d = (lo - c).max(DVec3::ZERO).max(c - hi);
+    d.length_squared()
+}
+
+/// One detail level: `g(x) = sum_j w_j psi_rho(|x - c_j|)`, centres in the mesh's units.
+#[derive(Debug, Clone)]
+pub struct DetailLevel {
+    radius: f64,
+    centres: Vec<DVec3>,
+    weights: Vec<f64>,
+    index: SupportIndex,
+}
+
+/// What [`DetailLevel::interpolate`] reports of its solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SparseSolve {
+    /// Conjugate gradient iterations.
+    pub iterations: usize,
+    /// Stored entries of the sparse matrix (both triangles and the diagonal).
+    pub entries: usize,
+    /// The largest `|g(c_i) - v_i|`, relative to the largest `|v_i|` (0 when every value is 0).
+    pub residual: f64,
+}
+
+impl DetailLevel {
+    /// The level of support radius `radius` with these centres and weights; `context` names
+    /// the source in errors.
+    ///
+    /// # Errors
+    /// A radius that is not finite and positive, as many weights as centres, or a non-finite
+    /// number.
+    pub fn new(
+        context: &str,
+        radius: f64,
+        centres: Vec<DVec3>,
+        weights: Vec<f64>,
+    ) -> Result<DetailLevel> {
+        if !(radius.is_finite() && radius > 0.0) {
+            return Err(Error::invalid(
+                context,
+                format!("support radius {radius} is not positive"),
+            ));
+        }
+        if centres.len() != weights.len() {
+            return Err(Error::invalid(
+                context,
+                format!("{} weights for {} centres", weights.len(), centres.len()),
+            ));
+        }
+        if centres.iter().any(|c| !c.is_finite()) || weights.iter().any(|w| !w.is_finite()) {
+            return Err(Error::invalid(context, "a centre or weight is not finite"));
+        }
+        let index = SupportIndex::new(&centres, radius);
+        Ok(DetailLevel { radius, centres, weights, index })
+    }
+
+    /// The level through `values` at `centres` (distinct points, mesh units) with support
+    /// radius `radius`: the weights solve the sparse system `A w = v`.
+    ///
+    /// # Errors
+    /// As [`DetailLevel::new`]; a system the iterations do not bring to [`CG_TOLERANCE`]
+    /// (coincident centres).
+    pub fn interpolate(
+        radius: f64,
+        centres: Vec<DVec3>,
+        values: &[f64],
+    ) -> Result<(DetailLevel, SparseSolve)> {
+        let zeros = vec![0.0; centres.len()];
+        let mut level = DetailLevel::new("a detail level", radius, centres, zeros)?;
+        let matrix = level.matrix();
+        let (weights, iterations) = conjugate_gradients(&matrix, values).ok_or_else(|| {
+            Error::invalid(
+                "a detail level",
+                format!(
+                    "the sparse solve of {} centres did not converge (coincident centres?)",
+                    values.len()
+                ),
+            )
+        })?;
+        level.weights = weights;
+        let fitted = matrix.product(&level.weights);
+        let largest = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let worst = fitted.iter().zip(values).map(|(f, v)| (f - v).abs()).fold(0.0f64, f64::max);
+        let residual = if largest > 0.0 { worst / largest } else { worst };
+        Ok((level, SparseSolve { iterations, entries: matrix.values.len(), residual }))
+    }
+
+    /// The support radius, mesh units.
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// The centres, mesh units.
+    pub fn centres(&self) -> &[DVec3] {
+        &self.centres
+    }
+
+    /// The weights, one per centre.
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    /// Bytes the level holds in memory: centres, weights and the support index.
+    pub fn bytes(&self) -> usize {
+        self.centres.len() * 32 + self.index.bytes()
+    }
+
+    /// `g(p)`, reading only the centres whose support covers `p`.
+    #[inline]
+    pub fn value(&self, p: DVec3) -> f64 {
+        let mut sum = 0.0;
+        for &j in self.index.near(p) {
+            let j = j as usize;
+            sum += self.weights[j] * wendland(p.distance(self.centres[j]) / self.radius);
+        }
+        sum
+    }
+
+    /// The gradient of `g` at `p`, reading only the centres whose support covers `p`.
+    #[inline]
+    pub fn gradient(&self, p: DVec3) -> DVec3 {
+        let mut sum = DVec3::ZERO;
+        for &j in self.index.near(p) {
+            let j = j as usize;
+            let d = p - self.centres[j];
+            sum += d * (self.weights[j] * wendland_slope(d.length() / self.radius));
+        }
+        sum / (self.radius * self.radius)
+    }
+
+    /// `g(p)` summed over every centre: the oracle of [`DetailLevel::value`].
+    pub fn value_brute_force(&self, p: DVec3) -> f64 {
+        self.centres
+            .iter()
+            .zip(&self.weights)
+            .map(|(&c, &w)| w * wendland(p.distance(c) / self.radius))
+            .sum()
+    }
+
+    /// The interpolation matrix in compressed rows.
+    fn matrix(&self) -> SparseMatrix {
+        let rows: Vec<Vec<(u32, f64)>> = self
+            .centres
+            .par_iter()
+            .map(|&c| {
+                let mut row: Vec<(u32, f64)> = self
+                    .index
+                    .near(c)
+                    .iter()
+                    .filter_map(|&j| {
+                        let t = c.distance(self.centres[j as usize]) / self.radius;
+                        (t < 1.0).then(|| (j, wendland(t)))
+                    })
+                    .collect();
+                row.sort_unstable_by_key(|e| e.0);
+                row
+            })
+            .collect();
+        let mut starts = Vec::with_capacity(rows.len() + 1);
+        starts.push(0);
+        let mut columns = Vec::new();
+        let mut values = Vec::new();
+        for row in rows {
+            for (j, v) in row {
+                columns.push(j);
+                values.push(v);
+            }
+            starts.push(columns.len());
+        }
+        SparseMatrix { starts, columns, values }
+    }
+}
+
+/// A square matrix in compressed rows.
+struct SparseMatrix {
+    starts: Vec<usize>,
+    columns: Vec<u32>,
+    values: Vec<f64>,
+}
+
+impl SparseMatrix {
+    fn product(&self, x: &[f64]) -> Vec<f64> {
+        (0..self.starts.len() - 1)
+            .into_par_iter()
+            .map(|i| {
+                let range = self.starts[i]..self.starts[i + 1];
+                self.columns[range.clone()]
+                    .iter()
+                    .zip(&self.values[range])
+                    .map(|(&j, &v)| v * x[j as usize])
+                    .sum()
+            })
+            .collect()
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.par_iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// Solves `A x = b` for a symmetric positive definite `A` by conjugate gradients from zero, to
+/// [`CG_TOLERANCE`]; the solution and the iterations, or `None` without convergence.
+fn conjugate_gradients(a: &SparseMatrix, b: &[f64]) -> Option<(Vec<f64>, usize)> {
+    let mut x = vec![0.0; b.len()];
+    let mut r = b.to_vec();
+    let mut p = r.clone();
+    let mut rr = dot(&r, &r);
+    let goal = CG_TOLERANCE * CG_TOLERANCE * rr;
+    for iteration in 0..CG_MAX_ITERATIONS {
+        if rr <= goal {
+            return Some((x, iteration));
+        }
+        let ap = a.product(&p);
+        let pap = dot(&p, &ap);
+        if pap.is_nan() || pap <= 0.0 {
+            return None;
+        }
+        let alpha = rr / pap;
+        x.par_iter_mut().zip(&p).for_each(|(x, p)| *x += alpha * p);
+        r.par_iter_mut().zip(&ap).for_each(|(r, ap)| *r -= alpha * ap);
+        let next = dot(&r, &r);
+        let beta = next / rr;
+        rr = next;
+        p.par_iter_mut().zip(&r).for_each(|(p, r)| *p = r + beta * *p);
+    }
+    (rr <= goal).then_some((x, CG_MAX_ITERATIONS))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn random_points(n: usize, seed: u64) -> Vec<DVec3> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..n).map(|_| DVec3::new(rng.random(), rng.random(), rng.random())).collect()
+    }
+
+    #[test]
+    fn wendland_is_one_at_the_centre_and_vanishes_with_its_slope_at_the_support() {
+        assert_eq!(wendland(0.0), 1.0);
+        assert_eq!(wendland(1.0), 0.0);
+        assert_eq!(wendland(1.5), 0.0);
+        assert!((wendland(0.5) - 0.0625 * 3.0).abs() < 1e-15);
+        // The slope by finite differences, and zero at the support's edge (C2 there).
+        for t in [0.1, 0.4, 0.8, 0.999] {
+            let h = 1e-6;
+            let numeric = (wendland(t + h) - wendland(t - h)) / (2.0 * h);
+            assert!((numeric - wendland_slope(t) * t).abs() < 1e-6, "{t}");
+        }
+        assert!(wendland_slope(1.0 - 1e-9).abs() < 1e-20);
+    }
+
+    /// The gradient of a level agrees with finite differences of its value.
+    #[test]
+    fn the_gradient_is_the_derivative_of_the_value() {
+        let centres = random_points(40, 2);
+        let weights = (0..40).map(|i| (i as f64 * 0.37).sin()).collect();
+        let level = DetailLevel::new("test", 0.3, centres, weights).unwrap();
+        for p in random_points(50, 3) {
+            let h = 1e-6;
+            let numeric = DVec3::new(
+                level.value(p + DVec3::X * h) - level.value(p - DVec3::X * h),
+                level.value(p + DVec3::Y * h) - level.value(p - DVec3::Y * h),
+                level.value(p + DVec3::Z * h) - level.value(p - DVec3::Z * h),
+            ) / (2.0 * h);
+            assert!(numeric.distance(level.gradient(p)) < 1e-6, "{numeric} {}", level.gradient(p));
+        }
+    }
+
+    /// On random points, the interpolation matrix is positive definite: its quadratic form is
+    /// positive for random vectors and its smallest Cholesky pivot (dense, as an oracle) too.
+    #[test]
+    fn the_interpolation_matrix_is_positive_definite_on_random_points() {
+        for (n, rho, seed) in [(60, 0.5, 4), (200, 0.35, 5), (120, 2.0, 6)] {
+            let points = random_points(n, seed);
+            let mut a = vec![0.0; n * n];
+            for i in 0..n {
+                for j in 0..n {
+                    a[i * n + j] = wendland(points[i].distance(points[j]) / rho);
+                }
+            }
+            // Cholesky, in place: every pivot positive.
+            for k in 0..n {
+                let pivot = a[k * n + k] - (0..k).map(|m| a[k * n + m].powi(2)).sum::<f64>();
+                assert!(pivot > 0.0, "pivot {k} is {pivot} for n {n}, rho {rho}");
+                a[k * n + k] = pivot.sqrt();
+                for i in k + 1..n {
+                    let s = a[i * n + k] - (0..k).map(|m| a[i * n + m] * a[k * n + m]).sum::<f64>();
+                    a[i * n + k] = s / a[k * n + k];
+                }
+            }
+        }
+    }
+
+    /// The index finds every centre that covers a point: local and brute-force sums agree to
+    /// rounding, and the support is compact (zero farther than rho from every centre).
+    #[test]
+    fn local_evaluation_equals_the_sum_over_every_centre() {
+        let centres: Vec<DVec3> = random_points(500, 7).into_iter().map(|p| p * 10.0).collect();
+        let weights: Vec<f64> = (0..500).map(|i| ((i * 7919) % 13) as f64 - 6.0).collect();
+        let level = DetailLevel::new("test", 1.3, centres.clone(), weights.clone()).unwrap();
+        for p in random_points(5000, 8).into_iter().map(|p| p * 12.0 - DVec3::ONE) {
+            let local = level.value(p);
+            let brute = level.value_brute_force(p);
+            assert!((local - brute).abs() <= 1e-12 * (1.0 + brute.abs()), "{local} {brute}");
+        }
+        let far = DVec3::splat(-5.0);
+        assert_eq!(level.value(far), 0.0);
+        assert_eq!(level.value_brute_force(far), 0.0);
+    }
+
+    /// The sparse solve interpolates: at every centre the level takes its value, to the stated
+    /// residual.
+    #[test]
+    fn the_sparse_solve_interpolates_the_values() {
+        let centres: Vec<DVec3> = random_points(2000, 9).into_iter().map(|p| p * 8.0).collect();
+        let values: Vec<f64> = centres.iter().map(|c| (c.x * 0.7).sin() + c.y * 0.1).collect();
+        let (level, solve) = DetailLevel::interpolate(1.0, centres.clone(), &values).unwrap();
+        assert!(solve.residual < 1e-8, "{solve:?}");
+        assert!(solve.entries > 2000 && solve.entries < 2000 * 200, "{solve:?}");
+        let worst = centres
+            .iter()
+            .zip(&values)
+            .map(|(&c, v)| (level.value(c) - v).abs())
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-7, "{worst}");
+    }
+}

@@ -1,0 +1,172 @@
+//! Detail levels over the paper's fit: a deliberately coarse level 0 of a torus corrected by
+//! levels below the target, local evaluation against the sum over every centre, the model
+//! file's version 2, and the consumers that refuse levels.
+
+use std::sync::OnceLock;
+
+use implicitize::fit::FitOptions;
+use implicitize::levels::MultiScale;
+use implicitize::morph::{self, Morph, MorphOptions};
+use implicitize::pipeline::{self, Fitted, MeshFitOptions};
+use implicitize::shader::{self, Language};
+use implicitize::shape::Shape;
+use implicitize::{Field, Mesh, Model, Resolution, polygonize};
+use implicitize_test_support::meshes::{max_vertex_distance, torus};
+use implicitize_test_support::points::random_points;
+
+/// The target, in voxels of the 128 grid.
+const TARGET: f32 = 1.0;
+
+fn torus_mesh() -> &'static Mesh {
+    static MESH: OnceLock<Mesh> = OnceLock::new();
+    MESH.get_or_init(|| torus(2.0, 0.6, 96, 48))
+}
+
+/// The options of a fit at 128 with levels: the pyramid starts at 32 voxels so that level 0
+/// fits at a quarter of the resolution (35 voxels), and from 20 initial constraints in a few
+/// iterations (the pyramid's grids take the others) so that it is deliberately coarse.
+fn options(max_levels: usize) -> MeshFitOptions {
+    let mut fit = FitOptions::default();
+    fit.initial_constraints = 20;
+    fit.max_iterations = 6;
+    fit.target_error = TARGET;
+    fit.coarse_start_min_axis = 32;
+    fit.levels.min_axis = 100;
+    fit.levels.base_target_error = 4.0;
+    fit.levels.max_levels = max_levels;
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(128);
+    options.fit = fit;
+    options
+}
+
+fn fitted() -> &'static Fitted {
+    static FITTED: OnceLock<Fitted> = OnceLock::new();
+    FITTED.get_or_init(|| pipeline::fit_mesh(torus_mesh(), &options(5)).unwrap())
+}
+
+fn levels() -> &'static MultiScale {
+    match fitted().model.shape() {
+        Shape::Levels(levels) => levels,
+        _ => panic!("the torus's level 0 met a target of 1 voxel at a quarter of the resolution"),
+    }
+}
+
+/// The largest distances, in voxels of the fit's grid, from the polygonized `field` to the
+/// torus and back.
+fn distances(field: &dyn Field) -> (f64, f64) {
+    let grid = fitted().model.grid().unwrap();
+    let surface = polygonize::polygonize_field(field, grid);
+    assert!(!surface.triangles.is_empty());
+    let there = max_vertex_distance(&surface, torus_mesh()) / grid.voxel_size;
+    let back = max_vertex_distance(torus_mesh(), &surface) / grid.voxel_size;
+    (there, back)
+}
+
+/// Level 0 alone lies several voxels from the torus; with the levels the polygonized surface
+/// is within the target plus a voxel (the voxelization's and polygonization's steps) both
+/// ways, the fit's own E (both ways, sub-voxel) and the levels' errors at the goal's surface
+/// are within the target, and every level's solve states a small residual.
+#[test]
+fn levels_correct_a_coarse_level_0_below_the_target() {
+    let report = fitted().report.levels.as_ref().expect("a report of the levels");
+    assert!(report.base_max_error_voxels > 3.0, "{report:?}");
+    assert!(!report.levels.is_empty());
+    let last = report.levels.last().unwrap();
+    assert!(last.max_error_voxels <= f64::from(TARGET), "{report:?}");
+    for (k, level) in report.levels.iter().enumerate() {
+        assert!(level.solve_residual < 1e-8, "level {k}: {level:?}");
+        assert_eq!(level.bytes, level.centres * 16);
+        assert_eq!(level.radius_voxels, report.levels[0].radius_voxels / f64::from(1 << k));
+    }
+    assert_eq!(fitted().model.grid().unwrap().dims.iter().max(), Some(&128));
+    let (base_there, base_back) = distances(levels().base());
+    assert!(base_there.max(base_back) > 2.0, "level 0: {base_there} {base_back}");
+    let (there, back) = distances(&fitted().model);
+    assert!(there <= 2.0 && back <= 2.0, "with levels: {there} {back}; {report:?}");
+    assert!(fitted().report.max_error_voxels <= 1.5, "E {}", fitted().report.max_error_voxels);
+}
+
+/// Values and gradients read only the centres whose supports cover the point, and equal the
+/// sums over every centre up to rounding.
+#[test]
+fn local_evaluation_equals_the_sum_over_every_centre() {
+    let levels = levels();
+    let bounds = fitted().model.bounds();
+    let mut points = random_points(&bounds, 0.1, 3000, 11);
+    points.extend(levels.levels().iter().flat_map(|l| l.centres().iter().take(300).copied()));
+    let values = levels.values(&points);
+    for (&p, &v) in points.iter().zip(&values) {
+        let brute = levels.value_brute_force(p);
+        assert!((levels.value(p) - brute).abs() <= 1e-9 * (1.0 + brute.abs()), "{p}");
+        assert!((v - brute).abs() <= 1e-6 * (1.0 + brute.abs()), "{p}: {v} {brute}");
+    }
+}
+
+/// A model with levels is written as version 2 and reads back to the same values bit for bit;
+/// a model without levels is still written as version 1; a version 1 file holding levels is
+/// refused, naming the file.
+#[test]
+fn the_model_file_keeps_levels_in_version_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("levels.json");
+    fitted().model.save(&path).unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    assert_eq!(json["version"], 2);
+    assert_eq!(json["shape"]["type"], "levels");
+    assert_eq!(json["shape"]["base"]["kernel"], "r2logr");
+    let dims = json["grid"]["dims"].as_array().unwrap();
+    assert_eq!(dims.iter().filter_map(serde_json::Value::as_u64).max(), Some(128));
+    let loaded = Model::load(&path).unwrap();
+    let points = random_points(&fitted().model.bounds(), 0.1, 500, 12);
+    for p in points {
+        assert_eq!(loaded.value(p).to_bits(), fitted().model.value(p).to_bits());
+    }
+    let base = dir.path().join("base.json");
+    Model::from_implicit(levels().base().clone(), fitted().model.bounds(), None)
+        .save(&base)
+        .unwrap();
+    let base_json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&base).unwrap()).unwrap();
+    assert_eq!(base_json["version"], 1);
+    assert!(Model::load(&base).is_ok());
+    let mut old = json.clone();
+    old["version"] = 1.into();
+    std::fs::write(&path, serde_json::to_string(&old).unwrap()).unwrap();
+    let message = Model::load(&path).unwrap_err().to_string();
+    assert!(message.contains(&path.display().to_string()), "{message}");
+    assert!(message.contains("detail levels in a version 1 model file"), "{message}");
+}
+
+/// Shaders (and so the viewer) and the variational morph refuse a model with levels in one
+/// line naming it; the blend morph and CSG read it through its values.
+#[test]
+fn consumers_that_do_not_read_levels_refuse_them() {
+    let model = &fitted().model;
+    for language in [Language::Glsl, Language::Wgsl] {
+        let message = shader::source(model, "torus.json", language).unwrap_err().to_string();
+        assert!(message.starts_with("torus.json: "), "{message}");
+        assert!(message.contains("detail levels cannot be exported"), "{message}");
+        assert!(!message.contains('\n'), "{message}");
+    }
+    let texture = shader::texture_source(model, "torus.json").unwrap_err().to_string();
+    assert!(texture.contains("detail levels"), "{texture}");
+    let variational = MorphOptions { method: morph::Method::Variational, ..Default::default() };
+    let message = Morph::new(model, model, &variational).err().unwrap().to_string();
+    assert!(message.contains("detail levels"), "{message}");
+    let blend = Morph::new(model, model, &MorphOptions::default()).unwrap();
+    let p = levels().levels()[0].centres()[0];
+    let scaled = model.value(p) / model.shape().distance_scale();
+    assert!((blend.frame(0.5).value(p) - scaled).abs() < 1e-12);
+}
+
+/// Level 0 and the first level's support are what the options ask: a quarter of the
+/// resolution (the pyramid's grids keep a margin of a voxel on every side) and 4 of its voxels,
+/// 16 of the full grid.
+#[test]
+fn level_0_fits_at_a_quarter_of_the_resolution() {
+    let report = fitted().report.levels.as_ref().unwrap();
+    let longest = *report.base_dims.iter().max().unwrap();
+    assert!((32..=36).contains(&longest), "{:?}", report.base_dims);
+    assert_eq!(report.levels[0].radius_voxels, 16.0);
+}
