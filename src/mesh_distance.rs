@@ -363,17 +363,50 @@ impl MeshDistance {
     /// number's tree for the call, and sums it along the same curve as
     /// [`MeshDistance::nearest_all`], so that neighbouring queries read the same nodes.
     pub fn inside(&self, points: &[DVec3]) -> Vec<bool> {
-        let winding = self.winding();
-        along_curve(points, |run| run.iter().map(|&i| winding.at(points[i]) >= 0.5).collect())
+        let (winding, frame) = self.winding();
+        along_curve(points, |run| {
+            run.iter().map(|&i| winding.at(frame.to_grid(points[i])) >= 0.5).collect()
+        })
     }
 
     /// The winding number's tree over the triangles (in the hierarchy's order: the sum does
-    /// not depend on it).
-    fn winding(&self) -> Winding {
-        let oriented = self.triangles.iter().zip(&self.flipped);
-        Winding::new(
-            oriented.map(|(&[a, b, c], &f)| if f { [a, c, b] } else { [a, b, c] }).collect(),
-        )
+    /// not depend on it), and the frame it is built in: the triangles moved and scaled so that
+    /// the longest side of their box is [`WINDING_FRAME`] long, as a voxelizer's grid would
+    /// place them (the tree rounds centroids to 1/1024 of a unit of that frame, and the winding
+    /// number does not change under moves and scales).
+    fn winding(&self) -> (Winding, Frame) {
+        let frame = Frame::around(&self.nodes[0]);
+        let oriented = self.triangles.iter().zip(&self.flipped).map(|(&[a, b, c], &f)| {
+            let corners = if f { [a, c, b] } else { [a, b, c] };
+            corners.map(|p| frame.to_grid(p))
+        });
+        (Winding::new(oriented.collect()), frame)
+    }
+}
+
+/// The side, in units of the winding number's frame, of the mesh's box's longest side.
+const WINDING_FRAME: f64 = 1024.0;
+
+/// A move and uniform scale of the mesh's units.
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    origin: DVec3,
+    scale: f64,
+}
+
+impl Frame {
+    /// The frame in which `root`'s box starts at the origin and its longest side is
+    /// [`WINDING_FRAME`] long (scale 1 for a box of no size).
+    fn around(root: &Node) -> Frame {
+        let (min, max) = (root.min.as_dvec3(), root.max.as_dvec3());
+        let longest = (max - min).max_element();
+        let scale =
+            if longest > 0.0 && longest.is_finite() { WINDING_FRAME / longest } else { 1.0 };
+        Frame { origin: min, scale }
+    }
+
+    fn to_grid(self, p: DVec3) -> DVec3 {
+        (p - self.origin) * self.scale
     }
 }
 
