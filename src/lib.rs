@@ -118,6 +118,7 @@ pub mod rbf;
 pub mod render;
 pub mod shader;
 pub mod shape;
+pub mod surface_distance;
 pub mod voxelize;
 
 pub use error::{Error, Result};
