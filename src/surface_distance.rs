@@ -187,12 +187,13 @@ mod tests {
         };
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         let points = sample(&mesh, 40_000, &mut rng).unwrap();
-        let upper = points.iter().filter(|p| p.z == 5.0).count();
+        let on_upper = |p: &&DVec3| (p.z - 5.0).abs() < 1e-12;
+        let upper = points.iter().filter(on_upper).count();
         assert_eq!(points.iter().filter(|p| p.z == 0.0).count() + upper, points.len());
         let fraction = upper as f64 / points.len() as f64;
         assert!((fraction - 0.75).abs() < 0.01, "{fraction}");
         let outside = points.iter().filter(|p| {
-            let scale = if p.z == 5.0 { 3.0 } else { 1.0 };
+            let scale = if on_upper(p) { 3.0 } else { 1.0 };
             p.x < 0.0 || p.y < 0.0 || p.x / scale + p.y > 1.0 + 1e-12
         });
         assert_eq!(outside.count(), 0);

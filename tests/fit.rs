@@ -49,11 +49,14 @@ fn vertex_distances(from: &Mesh, to: &Mesh, unit: f64) -> Vec<f64> {
 /// The report's `mesh_distance` is the polygonized surface the fit returns (the model's zero
 /// set on its grid, which `--mesh-out` writes) against the mesh: each way, its mean is the
 /// mean of the brute-force distances from the vertices of one surface to the triangles of the
-/// other, and its largest that of the vertices, within the length of a triangle's edge (the
-/// distance moves no faster than the point, and the samples come closer to every vertex).
+/// other, within a fifth of it plus the depth of the sphere's flat faces below its vertices'
+/// sphere (the samples lie on the faces, the vertices on the sphere), and its largest that of
+/// the vertices, within the length of a triangle's edge (the distance moves no faster than the
+/// point, and the samples come closer to every vertex).
 #[test]
 fn the_report_measures_the_polygonized_model_against_the_mesh() {
-    let ball = sphere(DVec3::new(0.3, -0.2, 0.1), 1.0, 24, 48);
+    let centre = DVec3::new(0.3, -0.2, 0.1);
+    let ball = sphere(centre, 1.0, 24, 48);
     let fitted = fit_mesh(&ball, 32, &FitOptions::default());
     let grid = fitted.model.grid().unwrap();
     let surface = polygonize::polygonize_field(&fitted.model, grid);
@@ -69,6 +72,10 @@ fn the_report_measures_the_polygonized_model_against_the_mesh() {
             .fold(0.0, f64::max)
             / grid.voxel_size
     };
+    let faces_depth = (0..ball.triangles.len())
+        .map(|t| 1.0 - point_triangle_distance(centre, ball.corners(t)))
+        .fold(0.0, f64::max)
+        / grid.voxel_size;
     for (way, from, to, figures) in [
         ("mesh to model", &ball, &surface, reported.mesh_to_model),
         ("model to mesh", &surface, &ball, reported.model_to_mesh),
@@ -79,7 +86,11 @@ fn the_report_measures_the_polygonized_model_against_the_mesh() {
         let edge = longest_edge(from);
         assert!(max > 0.05 && max < 1.0, "{way}: the vertices are {max} voxels away at most");
         assert!((figures.max - max).abs() <= edge, "{way}: {figures:?} against {max}, {edge}");
-        assert!((figures.mean - mean).abs() <= 0.2 * mean, "{way}: {figures:?} against {mean}");
+        let off = (figures.mean - mean).abs();
+        assert!(
+            off <= 0.2 * mean + faces_depth,
+            "{way}: {figures:?} against {mean}, {faces_depth}"
+        );
         assert!(figures.mean < figures.p99_9 && figures.p99_9 <= figures.max, "{way}");
     }
 }
