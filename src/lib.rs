@@ -121,6 +121,7 @@ pub mod render;
 pub mod sample;
 pub mod shader;
 pub mod shape;
+pub mod surface_distance;
 pub mod voxelize;
 
 pub use error::{Error, Result};

@@ -1,11 +1,13 @@
 //! The iterative fit (paper 5) end to end on shapes with known answers.
 
-use implicitize::fit::{FitOptions, Goal};
+use implicitize::fit::{ErrorMeasure, FitOptions, Goal, Termination};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions, Method};
 use implicitize::rbf::SinglePrecision;
 use implicitize::{DVec3, Field, Grid, Mesh, Resolution, polygonize, voxelize};
 use implicitize_test_support::data::triceratops;
-use implicitize_test_support::meshes::{max_vertex_distance, sphere, torus};
+use implicitize_test_support::meshes::{
+    max_vertex_distance, point_triangle_distance, sphere, torus,
+};
 
 /// Fits `mesh` at `resolution` with `options`, through the front door.
 fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> Fitted {
@@ -27,11 +29,90 @@ fn with_iterations(max_iterations: usize) -> FitOptions {
 /// and back: an error measured independently of the fit's own figures.
 fn distances_to(fitted: &Fitted, mesh: &Mesh) -> (f64, f64) {
     let grid = fitted.model.grid().expect("a fitted model has its grid");
-    let surface = polygonize::polygonize_field(&fitted.model, grid);
+    let surface = &fitted.surface;
     assert!(!surface.triangles.is_empty(), "the model has a surface");
-    let there = max_vertex_distance(&surface, mesh) / grid.voxel_size;
-    let back = max_vertex_distance(mesh, &surface) / grid.voxel_size;
+    let there = max_vertex_distance(surface, mesh) / grid.voxel_size;
+    let back = max_vertex_distance(mesh, surface) / grid.voxel_size;
     (there, back)
+}
+
+/// The distance from each vertex of `from` to the surface of `to`, by brute force over its
+/// triangles, in units of `unit`.
+fn vertex_distances(from: &Mesh, to: &Mesh, unit: f64) -> Vec<f64> {
+    let triangles: Vec<[DVec3; 3]> = (0..to.triangles.len()).map(|t| to.corners(t)).collect();
+    let nearest = |p: DVec3| {
+        triangles.iter().map(|&t| point_triangle_distance(p, t)).fold(f64::INFINITY, f64::min)
+    };
+    from.vertices.iter().map(|&p| nearest(p) / unit).collect()
+}
+
+/// The report's `mesh_distance` is the polygonized surface the fit returns (the model's zero
+/// set on its grid, which `--mesh-out` writes) against the mesh: each way, its mean is the
+/// mean of the brute-force distances from the vertices of one surface to the triangles of the
+/// other, within a fifth of it plus the depth of the sphere's flat faces below its vertices'
+/// sphere (the samples lie on the faces, the vertices on the sphere), and its largest that of
+/// the vertices, within the length of a triangle's edge (the distance moves no faster than the
+/// point, and the samples come closer to every vertex).
+#[test]
+fn the_report_measures_the_polygonized_model_against_the_mesh() {
+    let centre = DVec3::new(0.3, -0.2, 0.1);
+    let ball = sphere(centre, 1.0, 24, 48);
+    let fitted = fit_mesh(&ball, 32, &FitOptions::default());
+    let grid = fitted.model.grid().unwrap();
+    let surface = polygonize::polygonize_field(&fitted.model, grid);
+    assert_eq!(fitted.surface.vertices, surface.vertices, "the surface is the model's zero set");
+    assert_eq!(fitted.surface.triangles, surface.triangles);
+    let reported = fitted.report.mesh_distance.expect("a mesh's fit is measured against it");
+    let longest_edge = |mesh: &Mesh| {
+        (0..mesh.triangles.len())
+            .flat_map(|t| {
+                let [a, b, c] = mesh.corners(t);
+                [a.distance(b), b.distance(c), c.distance(a)]
+            })
+            .fold(0.0, f64::max)
+            / grid.voxel_size
+    };
+    let faces_depth = (0..ball.triangles.len())
+        .map(|t| 1.0 - point_triangle_distance(centre, ball.corners(t)))
+        .fold(0.0, f64::max)
+        / grid.voxel_size;
+    for (way, from, to, figures) in [
+        ("mesh to model", &ball, &surface, reported.mesh_to_model),
+        ("model to mesh", &surface, &ball, reported.model_to_mesh),
+    ] {
+        let distances = vertex_distances(from, to, grid.voxel_size);
+        let max = distances.iter().copied().fold(0.0, f64::max);
+        let mean = distances.iter().sum::<f64>() / distances.len() as f64;
+        let edge = longest_edge(from);
+        assert!(max > 0.05 && max < 1.0, "{way}: the vertices are {max} voxels away at most");
+        assert!((figures.max - max).abs() <= edge, "{way}: {figures:?} against {max}, {edge}");
+        let off = (figures.mean - mean).abs();
+        assert!(
+            off <= 0.2 * mean + faces_depth,
+            "{way}: {figures:?} against {mean}, {faces_depth}"
+        );
+        assert!(figures.mean < figures.p99_9 && figures.p99_9 <= figures.max, "{way}");
+    }
+}
+
+/// A fit whose target is set on the sub-voxel E, measured against the mesh's exact distance,
+/// reaches a target of half a voxel, and the polygonized surface is that close to the mesh by
+/// the report's own, independent, measure.
+#[test]
+fn a_subvoxel_fit_of_a_mesh_meets_its_target() {
+    let torus = torus(2.0, 0.7, 96, 48);
+    let mut options = FitOptions::default();
+    options.error_measure = ErrorMeasure::SubVoxel;
+    options.target_error = 0.5;
+    let fitted = fit_mesh(&torus, 48, &options);
+    let report = &fitted.report;
+    let target = Termination::TargetError { target: 0.5, measure: ErrorMeasure::SubVoxel };
+    assert_eq!(report.termination, target);
+    let kept = &report.per_iteration[report.best_iteration - 1];
+    assert!(kept.max_error_subvoxel_voxels <= 0.5, "{}", kept.max_error_subvoxel_voxels);
+    let measured = report.mesh_distance.unwrap();
+    let worst = measured.mesh_to_model.p99_9.max(measured.model_to_mesh.p99_9);
+    assert!(worst <= 0.5, "{measured:?}");
 }
 
 /// The fit stops at the target E of 2 voxels, and the polygonized surface and the mesh lie

@@ -46,7 +46,11 @@ impl CoarseStart {
             return None;
         }
         let density = downsample(&goal.density);
-        Some(CoarseStart { goal: Goal::from_density(density, &options.regularity) })
+        let mut coarse = Goal::from_density(density, &options.regularity);
+        if let Some(mesh) = goal.mesh() {
+            coarse = coarse.with_mesh(mesh.clone());
+        }
+        Some(CoarseStart { goal: coarse })
     }
 
     /// The options of the loop at half the resolution: its target is the coarse start's, in

@@ -1,5 +1,8 @@
 //! The goal shape the fit approximates: the voxelized mesh (paper 4.1), its signed distance
-//! (4.2), its boundary voxels ∂f_goal and their radii of regularity (4.3).
+//! (4.2), its boundary voxels ∂f_goal and their radii of regularity (4.3), and, for the
+//! sub-voxel measure, the mesh's exact distance.
+
+use std::sync::Arc;
 
 use rayon::prelude::*;
 
@@ -7,6 +10,7 @@ use super::surface::{self, SurfaceDisks};
 use crate::distance;
 use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
+use crate::mesh_distance::MeshDistance;
 use crate::metrics::{self, AGREEMENT, RegularityOptions, SubVoxel};
 
 /// Everything the fit needs to know about the goal shape, computed once.
@@ -29,6 +33,9 @@ pub struct Goal {
     pub(super) surface: Vec<DVec3>,
     /// The surface points as disks, for [`Goal::fine_signed_distance`].
     pub(super) disks: SurfaceDisks,
+    /// The mesh the densities were voxelized from, for [`Goal::fine_signed_distance`] to
+    /// measure its exact distance (see [`Goal::with_mesh`]).
+    mesh: Option<Arc<MeshDistance>>,
 }
 
 impl Goal {
@@ -40,7 +47,18 @@ impl Goal {
         let surface: Vec<DVec3> =
             boundary.par_iter().map(|&v| distance::surface_point(&density, v)).collect();
         let disks = SurfaceDisks::new(&surface, &density);
-        Goal { density, sd, boundary, rreg, surface, disks }
+        Goal { density, sd, boundary, rreg, surface, disks, mesh: None }
+    }
+
+    /// This goal, with [`Goal::fine_signed_distance`] measuring the exact distance to `mesh`,
+    /// the mesh its densities were voxelized from (at the same place: the grid's mesh units).
+    pub fn with_mesh(self, mesh: Arc<MeshDistance>) -> Goal {
+        Goal { mesh: Some(mesh), ..self }
+    }
+
+    /// The mesh's distance query given by [`Goal::with_mesh`], if any.
+    pub fn mesh(&self) -> Option<&Arc<MeshDistance>> {
+        self.mesh.as_ref()
     }
 
     /// The grid the goal lives on.
@@ -83,11 +101,27 @@ impl Goal {
     }
 
     /// The goal's signed distance at `p` (continuous voxel coordinates, inside positive, in
-    /// voxels): to the nearest of its surface disks (a disk in the tangent plane at each of
-    /// [`Goal::surface`]'s points) within 2.5 voxels of its voxel surface, the voxel-centre
-    /// distance elsewhere and wherever the two differ by more than [`AGREEMENT`]. Within a
-    /// voxel of the surface the side is the disk's, further out the voxel-centre distance's.
+    /// voxels). With a mesh ([`Goal::with_mesh`]), the exact distance to its triangles, with
+    /// the side measured as below. Without, the distance to the nearest of its surface disks
+    /// (a disk in the tangent plane at each of [`Goal::surface`]'s points) within 2.5 voxels of
+    /// its voxel surface, the voxel-centre distance elsewhere and wherever the two differ by
+    /// more than [`AGREEMENT`]. Within a voxel of the surface the side is the disk's, further
+    /// out the voxel-centre distance's.
     pub fn fine_signed_distance(&self, p: DVec3) -> f32 {
+        let voxelized = self.voxelized_signed_distance(p);
+        match &self.mesh {
+            Some(mesh) => {
+                let grid = self.grid();
+                let exact = mesh.nearest(grid.to_world(p)).distance / grid.voxel_size;
+                (exact as f32).copysign(voxelized)
+            }
+            None => voxelized,
+        }
+    }
+
+    /// [`Goal::fine_signed_distance`] from the voxelization alone: its disks and voxel-centre
+    /// distance.
+    fn voxelized_signed_distance(&self, p: DVec3) -> f32 {
         let coarse = distance::sample(&self.sd, p);
         if coarse.abs() > surface::REACH {
             return coarse;

@@ -213,7 +213,9 @@ pub enum ErrorMeasure {
     /// E to sub-voxel precision: the largest distance from a point on either surface to the
     /// other ([`ErrorMetrics::max_error_subvoxel`]), 0 for surfaces that coincide. Free of the
     /// voxel steps, it is the measure for targets of a voxel or less (on the bunny at 128, a
-    /// voxel-centre E of 1.50 went with a sub-voxel E of 0.99).
+    /// voxel-centre E of 1.50 went with a sub-voxel E of 0.99). A fit of a mesh
+    /// ([`crate::pipeline::Prepared::new`]) measures the current surface's points against the
+    /// mesh itself, with the exact distance to its triangles ([`Goal::with_mesh`]).
     #[serde(rename = "subvoxel")]
     SubVoxel,
 }
@@ -304,6 +306,7 @@ fn report_of(
         mesh_bytes: None,
         winding_near_half: None,
         levels: None,
+        mesh_distance: None,
     }
 }
 

@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::metrics::ErrorMetrics;
+use crate::surface_distance::MeshDistances;
 
 /// Constraint counts by kind, as in the paper's Table 1.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -289,6 +290,11 @@ pub struct FitReport {
     /// A multi-scale fit's level 0 and detail levels (see `fit/levels.rs`); absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub levels: Option<super::LevelsReport>,
+    /// For a mesh's fit, the model's polygonized surface (the one `--mesh-out` writes)
+    /// measured against the mesh both ways with exact distances, in voxels
+    /// ([`crate::surface_distance`]); `None` for a goal given as densities, or where either
+    /// surface has no area.
+    pub mesh_distance: Option<MeshDistances>,
 }
 
 impl FitReport {
@@ -329,6 +335,19 @@ impl FitReport {
             "stopped: {}; kept iteration {} of {}",
             self.termination, self.best_iteration, self.iterations
         );
+        if let Some(d) = &self.mesh_distance {
+            let _ = writeln!(
+                s,
+                "mesh -> model (voxels): max {:.2}, 99.9% {:.2}, mean {:.3}; \
+                 model -> mesh: max {:.2}, 99.9% {:.2}, mean {:.3}",
+                d.mesh_to_model.max,
+                d.mesh_to_model.p99_9,
+                d.mesh_to_model.mean,
+                d.model_to_mesh.max,
+                d.model_to_mesh.p99_9,
+                d.model_to_mesh.mean
+            );
+        }
         s
     }
 }

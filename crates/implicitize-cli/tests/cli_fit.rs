@@ -64,6 +64,17 @@ fn fit_writes_the_model_the_report_and_the_surface() {
     let (mesh, _) = implicitize::mesh::read(&surface).unwrap();
     assert!(mesh.triangles.len() > 1000);
     implicitize::model::Model::load(&model).unwrap();
+    // The mesh against the written surface, both ways, in voxels; the model file keeps them.
+    let embedded: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
+    for way in ["mesh_to_model", "model_to_mesh"] {
+        let figures = &report["mesh_distance"][way];
+        let [max, p999, mean] = ["max", "p99.9", "mean"].map(|key| {
+            figures[key].as_f64().unwrap_or_else(|| panic!("no {way}.{key} in {figures}"))
+        });
+        assert!(0.0 < mean && mean < 1.0 && mean <= p999 && p999 <= max, "{way}: {figures}");
+        assert_eq!(&embedded["report"]["mesh_distance"][way], figures);
+    }
 }
 
 /// The grid of each iteration of a fit of two iterations at 128 voxels, with and without
