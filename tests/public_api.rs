@@ -36,6 +36,7 @@ const PUBLIC_MODULES: &[&str] = &[
     "sample",
     "shader",
     "shape",
+    "surface_distance",
     "voxelize",
 ];
 
