@@ -127,21 +127,37 @@ pub(crate) fn sample(
     Ok(Samples { points, sdf, near, uniform })
 }
 
-/// The surface to draw points on: the triangles' corners and their cumulative areas.
-struct Surface {
+/// A surface to draw points on, uniformly by area: the triangles' corners and their cumulative
+/// areas. Also what a fit's report measures from ([`crate::surface_distance`]).
+pub(crate) struct Surface {
     corners: Vec<[DVec3; 3]>,
     cumulative: Vec<f64>,
 }
 
 impl Surface {
     /// The surface of `mesh`, from which `near` points will be drawn (none: no surface is
-    /// needed, and a mesh without area is fine).
+    /// needed, and a mesh without area is fine); `source` names the mesh in the error.
     fn new(mesh: &Mesh, near: usize, source: &str) -> Result<Surface> {
         if near == 0 {
             return Ok(Surface { corners: Vec::new(), cumulative: Vec::new() });
         }
-        let corners: Vec<[DVec3; 3]> =
-            mesh.triangles.iter().map(|t| t.map(|i| mesh.vertices[i as usize])).collect();
+        Surface::of(mesh).ok_or_else(|| {
+            Error::invalid(
+                source,
+                "the triangles have no area to draw points near the surface from",
+            )
+        })
+    }
+
+    /// The surface of `mesh`; `None` where its triangles have no area (or a corner's index is
+    /// out of range).
+    pub(crate) fn of(mesh: &Mesh) -> Option<Surface> {
+        let corner = |i: u32| mesh.vertices.get(i as usize).copied();
+        let corners: Vec<[DVec3; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| Some([corner(a)?, corner(b)?, corner(c)?]))
+            .collect::<Option<_>>()?;
         let mut total = 0.0;
         let cumulative = corners
             .iter()
@@ -150,17 +166,11 @@ impl Surface {
                 total
             })
             .collect();
-        if total.is_nan() || total <= 0.0 {
-            return Err(Error::invalid(
-                source,
-                "the triangles have no area to draw points near the surface from",
-            ));
-        }
-        Ok(Surface { corners, cumulative })
+        (total > 0.0 && total.is_finite()).then_some(Surface { corners, cumulative })
     }
 
     /// A point uniform on the surface: a triangle chosen by area, a point uniform on it.
-    fn point(&self, rng: &mut ChaCha8Rng) -> DVec3 {
+    pub(crate) fn point(&self, rng: &mut ChaCha8Rng) -> DVec3 {
         let total = *self.cumulative.last().expect("a surface with area has triangles");
         let r = rng.random::<f64>() * total;
         let t = self.cumulative.partition_point(|&c| c <= r).min(self.corners.len() - 1);

@@ -17,7 +17,7 @@
 //! percentiles two times in three. The largest distance of the samples is a lower bound of the
 //! true largest, which sits at a point the samples may miss.
 
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
@@ -25,6 +25,7 @@ use crate::error::Result;
 use crate::geometry::DVec3;
 use crate::mesh::Mesh;
 use crate::mesh_distance::MeshDistance;
+use crate::sample::Surface;
 
 /// Points sampled on each surface.
 pub const SAMPLES: usize = 100_000;
@@ -80,13 +81,11 @@ pub fn between(
     seed: u64,
 ) -> Result<Option<MeshDistances>> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let (Some(mut on_mesh), Some(mut on_model)) =
+    let (Some(on_mesh), Some(on_model)) =
         (sample(mesh, SAMPLES, &mut rng), sample(model, SAMPLES, &mut rng))
     else {
         return Ok(None);
     };
-    in_spatial_order(&mut on_mesh);
-    in_spatial_order(&mut on_model);
     let model_query = MeshDistance::new(model)?;
     let distances = |query: &MeshDistance, points: &[DVec3]| -> Vec<f64> {
         query.nearest_all(points).iter().map(|n| n.distance).collect()
@@ -97,60 +96,12 @@ pub fn between(
     }))
 }
 
-/// Sorts `points` along a Z-order curve through their bounding box, so that the queries of
-/// neighbouring points, which run one after another on a thread, read the same nodes of the
-/// hierarchy: the samples' random order reads them from memory at every query, at about twice
-/// the time.
-fn in_spatial_order(points: &mut [DVec3]) {
-    let (min, max) = points
-        .iter()
-        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-    let scale = 1023.0 / (max - min).max_element().max(f64::MIN_POSITIVE);
-    let spread = |v: u64| {
-        // The 10 bits of `v`, two zero bits between each.
-        let mut v = v & 0x3ff;
-        v = (v | v << 16) & 0x0300_00ff;
-        v = (v | v << 8) & 0x0300_f00f;
-        v = (v | v << 4) & 0x030c_30c3;
-        (v | v << 2) & 0x0924_9249
-    };
-    points.sort_by_cached_key(|&p| {
-        let q = ((p - min) * scale).to_array().map(|c| spread(c as u64));
-        q[0] | q[1] << 1 | q[2] << 2
-    });
-}
-
 /// `n` points on `mesh`'s triangles, each on a triangle drawn with probability proportional to
 /// its area and uniform on it; `None` where the triangles have no area (or their indices are
 /// out of range, which the distance query refuses).
 pub fn sample(mesh: &Mesh, n: usize, rng: &mut ChaCha8Rng) -> Option<Vec<DVec3>> {
-    let corners = |t: &[u32; 3]| -> Option<[DVec3; 3]> {
-        let mut c = [DVec3::ZERO; 3];
-        for (c, &i) in c.iter_mut().zip(t) {
-            *c = *mesh.vertices.get(i as usize)?;
-        }
-        Some(c)
-    };
-    let triangles: Vec<[DVec3; 3]> = mesh.triangles.iter().map(corners).collect::<Option<_>>()?;
-    let mut cumulative = Vec::with_capacity(triangles.len());
-    let mut total = 0.0;
-    for [a, b, c] in &triangles {
-        total += (*b - *a).cross(*c - *a).length() * 0.5;
-        cumulative.push(total);
-    }
-    if !(total > 0.0 && total.is_finite()) {
-        return None;
-    }
-    let points = (0..n)
-        .map(|_| {
-            let at = rng.random::<f64>() * total;
-            let t = cumulative.partition_point(|&c| c <= at).min(triangles.len() - 1);
-            let [a, b, c] = triangles[t];
-            let (r1, r2) = (rng.random::<f64>().sqrt(), rng.random::<f64>());
-            a * (1.0 - r1) + b * (r1 * (1.0 - r2)) + c * (r1 * r2)
-        })
-        .collect();
-    Some(points)
+    let surface = Surface::of(mesh)?;
+    Some((0..n).map(|_| surface.point(rng)).collect())
 }
 
 #[cfg(test)]
