@@ -179,8 +179,8 @@ pub enum VolumeKind {
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub struct DistanceOptions {
-    /// Sign the distances by the generalized winding number, positive inside (default), or
-    /// leave them unsigned (and skip the winding number).
+    /// Sign the distances, positive inside as the voxelizer decides it (default; see
+    /// [`crate::mesh_distance`]), or leave them unsigned (and skip that work).
     pub signed: bool,
     /// The memory the job may use.
     pub memory_limit: MemoryLimit,
@@ -494,7 +494,7 @@ pub fn volume(
 }
 
 /// The exact distance from each of `points` to `mesh`'s triangles and the closest points (see
-/// [`crate::mesh_distance`]), signed by the winding number unless `options` says not to.
+/// [`crate::mesh_distance`]), signed (inside as the voxelizer decides it) unless `options` says not to.
 /// `source` names the mesh in errors.
 ///
 /// # Errors

@@ -15,8 +15,8 @@
 //! * **Uniform:** in the mesh's bounding box grown on every side by 10% of its size along that
 //!   axis ([`PADDING`]).
 //! * **Distance:** exact, to the triangles ([`crate::mesh_distance`]), f64 in the mesh's units,
-//!   positive inside (where the generalized winding number is at least 1/2), as
-//!   [`MeshDistance::signed`] gives it.
+//!   positive inside as the voxelizer decides it (rays along the three axes, the generalized
+//!   winding number where they disagree), as [`MeshDistance::signed`] gives it.
 //! * **Deterministic:** the same mesh, `n` and options give the same samples bit for bit, on
 //!   any number of threads: each block of [`BLOCK`] points draws from its own ChaCha8 stream
 //!   of the seed.
@@ -121,9 +121,10 @@ pub(crate) fn sample(
                 .collect::<Vec<_>>()
         })
         .collect();
-    let distances: Vec<f64> = points.par_iter().map(|&p| query.nearest(p).distance).collect();
+    let nearest = query.nearest_all(&points);
     let inside = query.inside(&points);
-    let sdf = distances.iter().zip(inside).map(|(&d, i)| mesh_distance::signed(d, i)).collect();
+    let sdf =
+        nearest.iter().zip(inside).map(|(n, i)| mesh_distance::signed(n.distance, i)).collect();
     Ok(Samples { points, sdf, near, uniform })
 }
 

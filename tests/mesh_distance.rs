@@ -4,8 +4,10 @@
 
 use implicitize::mesh::Mesh;
 use implicitize::mesh_distance::{MeshDistance, Nearest};
-use implicitize::{Aabb, DVec3};
-use implicitize_test_support::meshes::{point_triangle_distance, sphere, torus};
+use implicitize::voxelize::{VoxelizeOptions, voxelize};
+use implicitize::{Aabb, DVec3, Grid, Resolution};
+use implicitize_test_support::hostile::open_box;
+use implicitize_test_support::meshes::{merge, point_triangle_distance, sphere, torus};
 use implicitize_test_support::points::random_points;
 use proptest::prelude::*;
 
@@ -221,6 +223,32 @@ fn an_open_hemisphere_gives_finite_distances() {
     // Deep in the bowl the soap film over its rim closes it; above the rim is outside.
     let signed = distance.signed(&[DVec3::new(0.0, 0.0, -0.5), DVec3::new(0.0, 0.0, 0.5)]);
     assert!(signed[0] > 0.0 && signed[1] < 0.0, "{signed:?}");
+}
+
+/// The inside is the voxelizer's at its voxel centres (rays along the three axes, the winding
+/// number where they disagree), on a mesh of closed, overlapping, partly flipped and open parts.
+#[test]
+fn the_inside_is_the_voxelizers_at_voxel_centres() {
+    let mut ring = torus(1.0, 0.35, 24, 12);
+    for t in ring.triangles.iter_mut().step_by(5) {
+        t.swap(1, 2);
+    }
+    let parts = merge(&ring, &sphere(DVec3::new(1.0, 0.0, 0.2), 0.4, 10, 16));
+    let mut bowl = sphere(DVec3::new(-1.2, 0.9, 0.1), 0.6, 12, 24);
+    bowl.triangles.retain(|t| t.iter().all(|&i| bowl.vertices[i as usize].z <= 0.35));
+    let lidless = open_box(DVec3::new(1.1, 1.0, -0.4), DVec3::new(0.5, 0.6, 0.7), |f| f != 5);
+    let mesh = merge(&merge(&parts, &bowl), &lidless);
+    let grid = Grid::around(&mesh.bounds().unwrap(), Resolution::LongestAxis(40)).unwrap();
+    let options = VoxelizeOptions::default().with_supersampling(1);
+    let voxelized = voxelize(&mesh, &grid, &options).unwrap();
+    assert!(voxelized.inside.winding_decided > 0.0, "the winding number decided nothing");
+    let centres: Vec<DVec3> = (0..grid.len()).map(|i| grid.position(grid.voxel(i))).collect();
+    let inside = MeshDistance::new(&mesh).unwrap().inside(&centres);
+    let differ =
+        (inside.iter().zip(&voxelized.density.data)).filter(|&(&i, &d)| i != (d > 0.5)).count();
+    let count = inside.iter().filter(|&&i| i).count();
+    assert!(count > grid.len() / 20, "{count} of {} voxels inside", grid.len());
+    assert_eq!(differ, 0, "{differ} of {} voxel centres differ from the voxelizer", grid.len());
 }
 
 #[test]

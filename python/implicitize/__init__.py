@@ -173,8 +173,8 @@ def distance(
 ) -> Union[_np.ndarray, Tuple[_np.ndarray, _np.ndarray]]:
     """Exact distances from ``points`` (N x 3) to the mesh's triangles, as ``implicitize distance``.
 
-    float64, mesh units; signed by the generalized winding number, positive inside, unless
-    ``signed`` is false. With ``closest``, a tuple: the distances and each point's closest point
+    float64, mesh units; positive inside as ``voxelize`` decides it (rays along the three axes,
+    the generalized winding number where they disagree), unless ``signed`` is false. With ``closest``, a tuple: the distances and each point's closest point
     of the surface (N x 3). ``memory_limit`` as in :func:`voxelize`. The GIL is released while
     measuring.
     """

@@ -58,7 +58,7 @@
 //! (4 bytes a voxel), one byte a voxel holds the centres' states while voxelizing.
 
 pub(crate) mod orient;
-mod rays;
+pub(crate) mod rays;
 pub(crate) mod winding;
 
 use std::sync::OnceLock;
@@ -311,13 +311,13 @@ struct Classifier<'a> {
 
 /// The votes of the rays at one point.
 #[derive(Debug, Clone, Copy, Default)]
-struct Votes {
+pub(crate) struct Votes {
     inside: u8,
     outside: u8,
 }
 
 impl Votes {
-    fn add(&mut self, vote: Option<bool>) {
+    pub(crate) fn add(&mut self, vote: Option<bool>) {
         match vote {
             Some(true) => self.inside += 1,
             Some(false) => self.outside += 1,
@@ -326,7 +326,7 @@ impl Votes {
     }
 
     /// The verdict when at least two rays vote and all agree.
-    fn verdict(self) -> Option<bool> {
+    pub(crate) fn verdict(self) -> Option<bool> {
         match (self.inside, self.outside) {
             (n, 0) if n >= 2 => Some(true),
             (0, n) if n >= 2 => Some(false),

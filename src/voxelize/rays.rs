@@ -119,33 +119,62 @@ impl Rays {
     }
 }
 
-/// What one ray says about a point at `x` along it: `None` when the ray is unreliable.
-///
-/// A ray whose entries and exits balance (signed total 0) votes by the nonzero winding rule
-/// (inside when the signed count before `x` is not 0), which keeps overlapping closed parts
-/// solid; otherwise a ray with an even number of crossings votes by parity; a ray with an odd
-/// number of crossings went through a hole and abstains.
+/// What one ray says about a point at `x` along it: `None` when the ray is unreliable (see
+/// [`Tally::vote`]).
 #[inline]
 pub(crate) fn vote(hits: &[Hit], x: f64) -> Option<bool> {
-    let (mut winding, mut below, mut total) = (0i32, 0usize, 0i32);
+    let mut tally = Tally::default();
     for hit in hits {
-        if hit.t < x {
-            winding += i32::from(hit.enter);
-            below += 1;
-        }
-        total += i32::from(hit.enter);
+        tally.add(hit.t, hit.enter, x);
     }
-    if total == 0 {
-        Some(winding != 0)
-    } else if hits.len().is_multiple_of(2) {
-        Some(below % 2 == 1)
-    } else {
-        None
+    tally.vote()
+}
+
+/// The crossings of one ray counted against a point on it, in any order.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Tally {
+    /// The signed crossings before the point.
+    winding: i32,
+    /// The crossings before the point.
+    below: usize,
+    /// The signed crossings along the whole ray.
+    total: i32,
+    /// The crossings along the whole ray.
+    count: usize,
+}
+
+impl Tally {
+    /// Counts a crossing at `t` along the ray (`enter` as in [`Hit`]) against the point at `x`.
+    #[inline]
+    pub(crate) fn add(&mut self, t: f64, enter: i8, x: f64) {
+        if t < x {
+            self.winding += i32::from(enter);
+            self.below += 1;
+        }
+        self.total += i32::from(enter);
+        self.count += 1;
+    }
+
+    /// What the ray says about the point: `None` when it is unreliable.
+    ///
+    /// A ray whose entries and exits balance (signed total 0) votes by the nonzero winding
+    /// rule (inside when the signed count before the point is not 0), which keeps overlapping
+    /// closed parts solid; otherwise a ray with an even number of crossings votes by parity; a
+    /// ray with an odd number of crossings went through a hole and abstains.
+    #[inline]
+    pub(crate) fn vote(self) -> Option<bool> {
+        if self.total == 0 {
+            Some(self.winding != 0)
+        } else if self.count.is_multiple_of(2) {
+            Some(self.below % 2 == 1)
+        } else {
+            None
+        }
     }
 }
 
 /// A triangle projected along a ray axis.
-struct Projected {
+pub(crate) struct Projected {
     /// Corners in the plane (u, v).
     p: [[f64; 2]; 3],
     /// Corner positions along the ray axis.
@@ -155,7 +184,7 @@ struct Projected {
 }
 
 impl Projected {
-    fn new(tri: &[DVec3; 3], axis: usize) -> Projected {
+    pub(crate) fn new(tri: &[DVec3; 3], axis: usize) -> Projected {
         let (u, v) = plane_axes(axis);
         let p = tri.map(|c| [c[u], c[v]]);
         let area = edge_function(p[0], p[1], p[2])
@@ -173,7 +202,7 @@ impl Projected {
 
     /// Whether the ray through `q` crosses the triangle: where, and whether it enters.
     #[inline]
-    fn cross(&self, q: [f64; 2]) -> Option<(f64, i8)> {
+    pub(crate) fn cross(&self, q: [f64; 2]) -> Option<(f64, i8)> {
         if self.orientation == 0.0 {
             return None;
         }
