@@ -55,7 +55,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{Aabb, DVec3, MORTON_BITS, morton_key};
 use crate::mesh::Mesh;
 use crate::voxelize::Votes;
-use crate::voxelize::orient::orient;
+use crate::voxelize::orient::{centre, orient_about};
 use crate::voxelize::rays::{Projected, Tally, plane_axes};
 use crate::voxelize::winding::Winding;
 use glam::Vec3;
@@ -68,9 +68,9 @@ pub const LEAF: usize = 4;
 /// Bytes per triangle of a mesh that building a [`MeshDistance`] needs at its peak: the
 /// triangles' corners twice (as read from the mesh and in the hierarchy's order), their
 /// centroids and indices while sorting, which way each faces, and the nodes, fewer than
-/// `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles each). Not counted: the
-/// re-orientation's tables while it is built (those of reading a mesh,
-/// [`crate::memory`]) and the winding number's tree that [`MeshDistance::signed`] builds.
+/// `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles each). Not counted: what
+/// the first sign ([`MeshDistance::inside`]) builds: the re-orientation and its tables (those
+/// of reading a mesh, [`crate::memory`]), the lines' hierarchies and the winding number's tree.
 pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
     + size_of::<(DVec3, u32)>()
     + size_of::<u32>()
@@ -141,9 +141,12 @@ pub struct MeshDistance {
     triangles: Vec<[DVec3; 3]>,
     /// The index in the mesh of each of `triangles`.
     indices: Vec<u32>,
+    /// The mean of the mesh's vertices, about which the re-orientation measures its volume.
+    centre: DVec3,
     /// Whether each of `triangles` faces against the orientation the voxelizer gives the mesh
-    /// (consistent across edges, outward: see [`crate::voxelize`]), for the winding number.
-    flipped: Vec<bool>,
+    /// (consistent across edges, outward: see [`crate::voxelize`]), for the sign: found when a
+    /// sign is first asked for ([`MeshDistance::flipped`]), so that unsigned queries skip it.
+    flipped: OnceLock<Vec<bool>>,
 }
 
 impl MeshDistance {
@@ -185,19 +188,35 @@ impl MeshDistance {
             }
             triangles.push(points);
         }
-        let oriented = orient(&mesh.vertices, &mesh.triangles).triangles;
-        let flipped = oriented.iter().zip(&mesh.triangles).map(|(o, t)| o != t).collect();
-        Ok(MeshDistance::build(triangles, flipped))
+        Ok(MeshDistance::build(triangles, centre(&mesh.vertices)))
     }
 
-    /// The hierarchy over `triangles` (at least one), with the triangles in its order.
-    /// `flipped` says which triangles the winding number takes the other way round.
-    fn build(triangles: Vec<[DVec3; 3]>, flipped: Vec<bool>) -> MeshDistance {
+    /// The hierarchy over `triangles` (at least one), with the triangles in its order;
+    /// `centre`: the mean of the mesh's vertices.
+    fn build(triangles: Vec<[DVec3; 3]>, centre: DVec3) -> MeshDistance {
         let centroid = |&[a, b, c]: &[DVec3; 3]| (a + b + c) / 3.0;
         let (nodes, indices) = hierarchy(&triangles, centroid, LEAF);
         let triangles = indices.iter().map(|&t| triangles[t as usize]).collect();
-        let flipped = indices.iter().map(|&t| flipped[t as usize]).collect();
-        MeshDistance { nodes, triangles, indices, flipped }
+        MeshDistance { nodes, triangles, indices, centre, flipped: OnceLock::new() }
+    }
+
+    /// Which triangles (in the hierarchy's order) the voxelizer's re-orientation flips,
+    /// found the first time it is asked: the mesh is rebuilt from the corners, in its order,
+    /// each triangle with corners of its own, which the re-orientation welds where they
+    /// coincide as it welds the mesh's vertices, and re-oriented about the mesh's centre, as
+    /// [`crate::voxelize`] re-orients the mesh.
+    fn flipped(&self) -> &[bool] {
+        self.flipped.get_or_init(|| {
+            let mut corners = vec![DVec3::ZERO; 3 * self.len()];
+            for (&t, triangle) in self.indices.iter().zip(&self.triangles) {
+                let t = 3 * t as usize;
+                corners[t..t + 3].copy_from_slice(triangle);
+            }
+            let own: Vec<[u32; 3]> =
+                (0..self.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+            let oriented = orient_about(&corners, &own, self.centre).triangles;
+            self.indices.iter().map(|&t| oriented[t as usize] != own[t as usize]).collect()
+        })
     }
 
     /// The number of triangles.
@@ -338,6 +357,8 @@ impl MeshDistance {
     /// same curve as [`MeshDistance::nearest_all`], so that neighbouring queries read the same
     /// nodes.
     pub fn inside(&self, points: &[DVec3]) -> Vec<bool> {
+        // Found before the lines' hierarchies, so that the two do not hold memory at once.
+        self.flipped();
         let lines = Lines::new(self);
         let winding = OnceLock::new();
         along_curve(points, |run| {
@@ -368,7 +389,7 @@ impl MeshDistance {
     /// re-orients them.
     fn oriented(&self, t: usize) -> [DVec3; 3] {
         let [a, b, c] = self.triangles[t];
-        if self.flipped[t] { [a, c, b] } else { [a, b, c] }
+        if self.flipped()[t] { [a, c, b] } else { [a, b, c] }
     }
 }
 

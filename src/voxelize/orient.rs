@@ -29,6 +29,17 @@ pub(crate) struct Oriented {
 
 /// Re-orients the triangles as described in the module doc.
 pub(crate) fn orient(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Oriented {
+    orient_about(vertices, triangles, centre(vertices))
+}
+
+/// The mean of `vertices` (the origin for none): where [`orient`] measures the signed volume.
+pub(crate) fn centre(vertices: &[DVec3]) -> DVec3 {
+    vertices.iter().copied().sum::<DVec3>() / vertices.len().max(1) as f64
+}
+
+/// [`orient`], measuring the signed volume of step 4 about `centre` (which decides it only
+/// for an open mesh).
+pub(crate) fn orient_about(vertices: &[DVec3], triangles: &[[u32; 3]], centre: DVec3) -> Oriented {
     let welded = weld(vertices, triangles);
     let edges = Edges::of(&welded, vertices.len());
     let neighbours = manifold_neighbours(&edges, triangles.len());
@@ -41,7 +52,6 @@ pub(crate) fn orient(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Oriented {
         .zip(&flip)
         .map(|(&[a, b, c], &f)| if f { [a, c, b] } else { [a, b, c] })
         .collect();
-    let centre = vertices.iter().copied().sum::<DVec3>() / vertices.len().max(1) as f64;
     let volume: f64 = oriented
         .par_iter()
         .map(|t| {
