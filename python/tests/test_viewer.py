@@ -1,10 +1,11 @@
 """The page of `implicitize view` in a real browser (headless Chromium, WebGL2 by SwiftShader):
-it draws what `implicitize render` draws, orbits and resets, draws the mesh beside the model and
+it draws what `implicitize render` draws, thin parts included, orbits and resets, draws the mesh beside the model and
 CSG composites, and its shader's values (and those of `implicitize export --format glsl`) are
 the model's `eval` in single precision.
 
 The models: the bunny (../shared/models, else the repository's triceratops) fitted once at a
-low resolution, a ball solved from constraints with the r^3 kernel, and their blended union."""
+low resolution, a ball solved from constraints with the r^3 kernel, their blended union, and the
+triceratops fitted at 150, whose brow horns are a few voxels thick."""
 
 from __future__ import annotations
 
@@ -26,6 +27,9 @@ MESH = BUNNY if BUNNY.is_file() else TRICERATOPS
 
 # render's default view, and one from behind and below.
 VIEWS = [(35.0, 20.0), (150.0, -15.0)]
+
+# Six views around the model, from above and below.
+SIX_VIEWS = [(30.0, 20.0), (90.0, 0.0), (150.0, -15.0), (210.0, 30.0), (270.0, 10.0), (330.0, -30.0)]
 
 # The page's background with panel=0 is black; the darkest lit surface is about 48 of 255.
 BACKGROUND_MAX = 24
@@ -59,6 +63,15 @@ def models(run, tmp_path_factory) -> Path:
     run("view", d / "mesh.json", "-o", d / "side.html", "--mesh", MESH, "--report", d / "report.json")
     run("view", d / "csg.json", "-o", d / "csg.html")
     run("export", d / "mesh.json", "--format", "glsl", "-o", d / "mesh.glsl")
+    return d
+
+
+@pytest.fixture(scope="module")
+def thin(run, tmp_path_factory) -> Path:
+    """The triceratops fitted at --resolution 150 and its page."""
+    d = tmp_path_factory.mktemp("thin")
+    run("fit", TRICERATOPS, "-o", d / "thin.json", "--resolution", "150")
+    run("view", d / "thin.json", "-o", d / "thin.html")
     return d
 
 
@@ -99,6 +112,21 @@ def test_the_page_draws_what_render_draws(run, models, browser, view):
     print(f"silhouette IoU page vs render at {view}: {score:.4f} ({picture.sum()} pixels)")
     assert picture.sum() > 0.05 * picture.size, "the model fills a fair part of the frame"
     assert score >= 0.97, f"IoU {score:.4f} at view {view}"
+
+
+@pytest.mark.parametrize("view", SIX_VIEWS)
+def test_thin_parts_are_drawn_as_render_draws_them(run, thin, browser, view):
+    # Sampling the function on a coarse lattice lost the brow horns (IoU 0.970 at 30, 20); the
+    # page now marches render's lattice and skips only blocks bounded outside.
+    start = time.perf_counter()
+    open_page(browser, thin / "thin.html", f"view={view[0]},{view[1]}&panel=0")
+    page = silhouette(screenshot(browser))
+    timed(f"thin page at {view}", start)
+    picture = rendered(run, thin / "thin.json", view, thin / "render.png")[..., 3] > 0
+    score = iou(page, picture)
+    print(f"triceratops at 150: silhouette IoU page vs render at {view}: {score:.4f}")
+    assert picture.sum() > 0.05 * picture.size
+    assert score >= 0.99, f"IoU {score:.4f} at view {view}"
 
 
 def test_the_mesh_is_drawn_beside_the_model_as_render_compare_draws_them(run, models, browser):
@@ -216,3 +244,4 @@ def test_a_csg_composite_is_drawn_as_render_draws_it(run, models, browser):
     score = iou(page, picture)
     print(f"csg: silhouette IoU page vs render: {score:.4f}")
     assert score >= 0.97
+
