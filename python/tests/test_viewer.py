@@ -5,7 +5,8 @@ the model's `eval` in single precision.
 
 The models: the bunny (../shared/models, else the repository's triceratops) fitted once at a
 low resolution, a ball solved from constraints with the r^3 kernel, their blended union, and the
-triceratops fitted at 150, whose brow horns are a few voxels thick."""
+triceratops fitted at 150, whose brow horns are a few voxels thick, and the bunny's model with a
+detail level of small bumps (a version 2 model file)."""
 
 from __future__ import annotations
 
@@ -245,3 +246,56 @@ def test_a_csg_composite_is_drawn_as_render_draws_it(run, models, browser):
     print(f"csg: silhouette IoU page vs render: {score:.4f}")
     assert score >= 0.97
 
+
+@pytest.fixture(scope="module")
+def bumpy(run, models) -> Path:
+    """The mesh's model with one detail level: at a dozen of its surface centres, Wendland
+    functions of support 6% of the model's size, each raising the surface by about half its
+    support; and its page and exported GLSL."""
+    model = json.loads((models / "mesh.json").read_text())
+    base = {k: v for k, v in model["shape"].items() if k != "type"}
+    surface = [c for c, k in zip(base["centres"], base["kinds"]) if k == "boundary"]
+    centres = np.array(surface[:: max(1, len(surface) // 12)][:12])
+    lo, hi = np.array(model["bounds"]["min"]), np.array(model["bounds"]["max"])
+    radius = 0.06 * float((hi - lo).max())
+    h = 1e-3 * radius
+    offsets = np.concatenate([np.eye(3), -np.eye(3)]) * h
+    around = (centres[:, None, :] + offsets[None]).reshape(-1, 3)
+    values = evaluated(run, models / "mesh.json", around, models).reshape(len(centres), 6)
+    slope = np.linalg.norm((values[:, :3] - values[:, 3:]) / (2 * h), axis=1)
+    level = {"radius": radius, "centres": centres.tolist(), "weights": (0.5 * radius * slope).tolist()}
+    model.update(version=2, shape={"type": "levels", "base": base, "levels": [level]})
+    model.pop("report", None)
+    path = models / "bumpy.json"
+    path.write_text(json.dumps(model))
+    run("view", path, "-o", models / "bumpy.html")
+    run("export", path, "--format", "glsl", "-o", models / "bumpy.glsl")
+    return path
+
+
+@pytest.mark.parametrize("view", SIX_VIEWS[::2])
+def test_a_model_with_detail_levels_is_drawn_as_render_draws_it(run, models, bumpy, browser, view):
+    open_page(browser, bumpy.with_suffix(".html"), f"view={view[0]},{view[1]}&panel=0")
+    page = silhouette(screenshot(browser))
+    picture = rendered(run, bumpy, view, models / "bumpy.png")[..., 3] > 0
+    alone = rendered(run, models / "mesh.json", view, models / "alone.png")[..., 3] > 0
+    assert iou(picture, alone) < 0.998, "the bumps change the silhouette"
+    score = iou(page, picture)
+    print(f"levels: silhouette IoU page vs render at {view}: {score:.4f} (level 0 alone {iou(picture, alone):.4f})")
+    assert score >= 0.99, f"IoU {score:.4f} at view {view}"
+
+
+def test_the_shader_values_of_a_model_with_levels_equal_eval_to_1e5_of_the_range(run, models, bumpy, browser):
+    points = grid(bumpy, 16)
+    # And the points around the bumps, where the level acts.
+    level = json.loads(bumpy.read_text())["shape"]["levels"][0]
+    centres, radius = np.array(level["centres"]), level["radius"]
+    rng = np.random.default_rng(3)
+    near = centres[rng.integers(len(centres), size=1024)] + rng.uniform(-radius, radius, (1024, 3))
+    points = np.concatenate([points[: 4096 - 1024], near.astype(np.float32).astype(np.float64)])
+    values = evaluated(run, bumpy, points, models)
+    open_page(browser, bumpy.with_suffix(".html"))
+    for name, source in (("page", None), ("exported GLSL", bumpy.with_suffix(".glsl").read_text())):
+        error = relative_value_error(on_gpu(browser, points, source), values)
+        print(f"levels: the {name}'s values vs eval at {len(points)} points, {error:.2e} of the range")
+        assert error <= 1e-5
