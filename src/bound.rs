@@ -76,7 +76,23 @@ pub fn range(shape: &Shape, region: &Aabb) -> Interval {
 /// partition of the region proves the function is nowhere positive there. (Only the sign is
 /// sought: a positive bound is returned as soon as a smallest part may be positive.)
 pub fn upper(shape: &Shape, region: &Aabb, depth: u32) -> f64 {
-    let interval = range(shape, region);
+    match shape {
+        // The levels' interval over the whole region holds over each part of it: it is found
+        // once, and only level 0's is split.
+        Shape::Levels(levels) => {
+            let detail =
+                levels.levels().iter().fold(Interval { lo: 0.0, hi: 0.0 }, |sum, level| {
+                    sum.add(level_range(level, region))
+                });
+            split_upper(&|part| implicit_range(levels.base(), part).add(detail), region, depth)
+        }
+        _ => split_upper(&|part| range(shape, part), region, depth),
+    }
+}
+
+/// [`upper`] of the function whose interval over a box `range` gives.
+fn split_upper(range: &dyn Fn(&Aabb) -> Interval, region: &Aabb, depth: u32) -> f64 {
+    let interval = range(region);
     if interval.hi <= 0.0 || interval.lo > 0.0 || depth == 0 {
         return interval.hi;
     }
@@ -85,7 +101,7 @@ pub fn upper(shape: &Shape, region: &Aabb, depth: u32) -> f64 {
     for corner in 0..8 {
         let pick = |bit: usize| if corner >> bit & 1 == 1 { 1.0 } else { 0.0 };
         let min = region.min + half * DVec3::new(pick(0), pick(1), pick(2));
-        let part = upper(shape, &Aabb { min, max: min + half }, depth - 1);
+        let part = split_upper(range, &Aabb { min, max: min + half }, depth - 1);
         if part > 0.0 {
             return part;
         }
@@ -326,6 +342,10 @@ mod tests {
         let levels = Shape::Levels(MultiScale::new("test", base.clone(), vec![level]).unwrap());
         for region in boxes() {
             assert_holds(&levels, &region);
+            let most = (0..=20)
+                .map(|i| levels.value(region.min + region.size() * (f64::from(i) / 20.0)))
+                .fold(f64::NEG_INFINITY, f64::max);
+            assert!(upper(&levels, &region, 3) >= most.min(1e-300), "{region:?}");
         }
         let moved = ball(Kernel::Cubic);
         for operation in [Operation::Union, Operation::Intersection, Operation::Difference] {
