@@ -97,6 +97,7 @@
 #![deny(missing_docs)]
 
 pub mod batch;
+pub mod bound;
 pub mod csg;
 pub mod distance;
 pub mod error;

@@ -34,14 +34,26 @@
 //! `(c - translate) / scale` in `rgb` and the weight in `a`. The functions of a composite take
 //! consecutive runs of texels, in the order of the model file's tree (depth first), each at the
 //! offset written into its loop. The sampler is the uniform `implicitize_centres`.
+//!
+//! ## Detail levels
+//! A model with detail levels ([`crate::levels`]) is level 0's function plus one function per
+//! level, evaluated in level 0's normalized coordinates. A level is never read by looping over
+//! its centres: its [`DetailLevel::grid_index`] (a dense uniform grid over its supports, at most
+//! [`CONSTANT_INDEX_CELLS`] cells in the source, [`TEXTURE_INDEX_CELLS`] in the texture, each
+//! cell listing the centres whose support meets it) gives the point's one cell, whose run of
+//! entries names the centres whose Wendland terms are summed. In the source the level's
+//! normalized centres and weights, cell starts and entries are constant arrays; in the texture
+//! they follow level 0's centres in that order, the centres one a texel, the starts and
+//! entries one number a texel in `r` (exact in f32 below 2^24).
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 
 use crate::csg::{Composite, Operation};
 use crate::error::{Error, Result};
+use crate::levels::MultiScale;
 use crate::model::Model;
-use crate::rbf::{Implicit, Kernel};
+use crate::rbf::{DetailLevel, Implicit, Kernel, Normalization};
 use crate::shape::Shape;
 
 /// The shading language of [`source`].
@@ -55,6 +67,14 @@ pub enum Language {
 
 /// Texels per row of the centre texture (see the [module doc](self)).
 pub const TEXTURE_WIDTH: usize = 1024;
+
+/// At most about this many cells in the grid index of a detail level whose numbers are
+/// constants in the source ([`source`]): 32^3.
+pub const CONSTANT_INDEX_CELLS: usize = 1 << 15;
+
+/// At most about this many cells in the grid index of a detail level in the texture
+/// ([`texture_source`]): 64^3.
+pub const TEXTURE_INDEX_CELLS: usize = 1 << 18;
 
 /// The centres and weights of every function of a model, laid out as the [module
 /// doc](self) says: `width * height` RGBA texels, row after row, padded with zeros.
@@ -167,7 +187,7 @@ impl Emitter {
         match shape {
             Shape::Rbf(implicit) => self.rbf(implicit),
             Shape::Csg(composite) => self.csg(composite),
-            Shape::Levels(_) => unreachable!("`check` refuses models with detail levels"),
+            Shape::Levels(levels) => self.levels(levels),
         }
     }
 
@@ -189,7 +209,11 @@ impl Emitter {
         );
         let fetch = match self.storage {
             Storage::Constants => {
-                self.code.push_str(&constant_array(id, &centres, lang));
+                self.code.push_str(&constant_array_named(
+                    &format!("IMPLICITIZE_RBF{id}"),
+                    &centres,
+                    lang,
+                ));
                 format!("IMPLICITIZE_RBF{id}[j]")
             }
             Storage::Texture => {
@@ -220,6 +244,172 @@ impl Emitter {
         };
         self.code.push_str(&parts.functions(lang));
         id
+    }
+
+    /// Writes the functions of a model with detail levels: level 0's node, one function per
+    /// detail level reading its grid index, and the node that sums them.
+    fn levels(&mut self, levels: &MultiScale) -> usize {
+        let base = self.rbf(levels.base());
+        let id = self.next();
+        let lang = self.language;
+        let norm = levels.base().normalization();
+        let t = &norm.translate;
+        let (translate, inv_scale) = (vec3(lang, t[0], t[1], t[2]), number(1.0 / norm.scale));
+        let mut calls = Vec::new();
+        for (k, level) in levels.levels().iter().enumerate() {
+            if level.centres().is_empty() {
+                continue;
+            }
+            let name = format!("implicitize_node{id}_level{k}");
+            let code = self.level(&name, level, norm);
+            self.code.push_str(&code);
+            calls.push(format!("{name}(q)"));
+        }
+        let sum = match (calls.is_empty(), lang) {
+            (false, _) => calls.join(" + "),
+            (true, Language::Glsl) => "vec4(0.0)".into(),
+            (true, Language::Wgsl) => "vec4<f32>(0.0)".into(),
+        };
+        let (sig_value, sig_both) = signatures(lang, id);
+        let (q, l, b) = match lang {
+            Language::Glsl => ("vec3 q", "vec4 l", "vec4 b"),
+            Language::Wgsl => ("let q", "let l", "let b"),
+        };
+        let _ = write!(
+            self.code,
+            "// node {id}: level 0 (node {base}) plus {} detail levels, at q = (p - translate) / scale\n\
+             {sig_value} {{\n\
+             \x20   {q} = (p - {translate}) * {inv_scale};\n\
+             \x20   {l} = {sum};\n\
+             \x20   return implicitize_node{base}_value(p) + l.w;\n\
+             }}\n\
+             {sig_both} {{\n\
+             \x20   {q} = (p - {translate}) * {inv_scale};\n\
+             \x20   {l} = {sum};\n\
+             \x20   {b} = implicitize_node{base}(p);\n\
+             \x20   return {};\n\
+             }}\n\n",
+            calls.len(),
+            vec4_of(lang, &format!("b.xyz + l.xyz * {inv_scale}"), "b.w + l.w"),
+        );
+        id
+    }
+
+    /// The function `name(q)` of one detail level in level 0's normalized coordinates `q`: its
+    /// gradient (in `q`) and value, summed over the centres its grid index lists for `q`'s cell.
+    fn level(&mut self, name: &str, level: &DetailLevel, norm: &Normalization) -> String {
+        let lang = self.language;
+        let max_cells = match self.storage {
+            Storage::Constants => CONSTANT_INDEX_CELLS,
+            Storage::Texture => TEXTURE_INDEX_CELLS,
+        };
+        let index = level.grid_index(max_cells);
+        let centres: Vec<[f32; 4]> = level
+            .centres()
+            .iter()
+            .zip(level.weights())
+            .map(|(c, &w)| {
+                let mut q = [0.0; 3];
+                norm.apply(&c.to_array(), &mut q);
+                [q[0] as f32, q[1] as f32, q[2] as f32, w as f32]
+            })
+            .collect();
+        let upper = name.to_uppercase();
+        let (centre, first, end) = match self.storage {
+            Storage::Constants => {
+                let mut arrays = constant_array_named(&format!("{upper}_CENTRES"), &centres, lang);
+                arrays.push_str(&int_array(&format!("{upper}_STARTS"), &index.starts, lang));
+                let entries =
+                    if index.entries.is_empty() { vec![0] } else { index.entries.clone() };
+                arrays.push_str(&int_array(&format!("{upper}_ENTRIES"), &entries, lang));
+                self.code.push_str(&arrays);
+                (
+                    format!("{upper}_CENTRES[{upper}_ENTRIES[e]]"),
+                    format!("{upper}_STARTS[cell]"),
+                    format!("{upper}_STARTS[cell + 1]"),
+                )
+            }
+            Storage::Texture => {
+                let centre_offset = self.texels.len() / 4;
+                self.texels.extend(centres.iter().flatten());
+                let starts_offset = self.texels.len() / 4;
+                self.texels.extend(index.starts.iter().flat_map(|&i| [i as f32, 0.0, 0.0, 0.0]));
+                let entries_offset = self.texels.len() / 4;
+                self.texels.extend(index.entries.iter().flat_map(|&i| [i as f32, 0.0, 0.0, 0.0]));
+                let texel = |at: String| {
+                    format!(
+                        "texelFetch(implicitize_centres, ivec2(({at}) % {TEXTURE_WIDTH}, ({at}) / {TEXTURE_WIDTH}), 0)"
+                    )
+                };
+                (
+                    texel(format!(
+                        "int({}.r) + {centre_offset}",
+                        texel(format!("e + {entries_offset}"))
+                    )),
+                    format!("int({}.r)", texel(format!("cell + {starts_offset}"))),
+                    format!("int({}.r)", texel(format!("cell + 1 + {starts_offset}"))),
+                )
+            }
+        };
+        let o = index.origin;
+        let mut origin = [0.0; 3];
+        norm.apply(&o.to_array(), &mut origin);
+        let origin = vec3(lang, origin[0], origin[1], origin[2]);
+        let inv_side = number(norm.scale / index.side);
+        let radius = level.radius() / norm.scale;
+        let (inv_radius, inv_radius2) = (number(1.0 / radius), number(1.0 / (radius * radius)));
+        let [dx, dy, dz] = index.dims;
+        let dims = vec3(lang, dx as f64, dy as f64, dz as f64);
+        let body = match lang {
+            Language::Glsl => format!(
+                "vec4 {name}(vec3 q) {{\n\
+                 \x20   vec3 g = floor((q - {origin}) * {inv_side});\n\
+                 \x20   if (any(lessThan(g, vec3(0.0))) || any(greaterThanEqual(g, {dims}))) {{ return vec4(0.0); }}\n\
+                 \x20   ivec3 c = ivec3(g);\n\
+                 \x20   int cell = (c.z * {dy} + c.y) * {dx} + c.x;\n\
+                 \x20   vec4 f = vec4(0.0);\n\
+                 \x20   int end = {end};\n\
+                 \x20   for (int e = {first}; e < end; e++) {{\n\
+                 \x20       vec4 cw = {centre};\n\
+                 \x20       vec3 d = q - cw.xyz;\n\
+                 \x20       float t = length(d) * {inv_radius};\n\
+                 \x20       if (t < 1.0) {{\n\
+                 \x20           float s = 1.0 - t;\n\
+                 \x20           float s3 = s * s * s;\n\
+                 \x20           f += cw.w * vec4(-20.0 * s3 * {inv_radius2} * d, s3 * s * (4.0 * t + 1.0));\n\
+                 \x20       }}\n\
+                 \x20   }}\n\
+                 \x20   return f;\n\
+                 }}\n\n"
+            ),
+            Language::Wgsl => format!(
+                "fn {name}(q: vec3<f32>) -> vec4<f32> {{\n\
+                 \x20   let g = floor((q - {origin}) * {inv_side});\n\
+                 \x20   if (any(g < vec3<f32>(0.0)) || any(g >= {dims})) {{ return vec4<f32>(0.0); }}\n\
+                 \x20   let c = vec3<i32>(g);\n\
+                 \x20   let cell = (c.z * {dy} + c.y) * {dx} + c.x;\n\
+                 \x20   var f = vec4<f32>(0.0);\n\
+                 \x20   let end = {end};\n\
+                 \x20   for (var e = {first}; e < end; e++) {{\n\
+                 \x20       let cw = {centre};\n\
+                 \x20       let d = q - cw.xyz;\n\
+                 \x20       let t = length(d) * {inv_radius};\n\
+                 \x20       if (t < 1.0) {{\n\
+                 \x20           let s = 1.0 - t;\n\
+                 \x20           let s3 = s * s * s;\n\
+                 \x20           f += cw.w * vec4<f32>(-20.0 * s3 * {inv_radius2} * d, s3 * s * (4.0 * t + 1.0));\n\
+                 \x20       }}\n\
+                 \x20   }}\n\
+                 \x20   return f;\n\
+                 }}\n\n"
+            ),
+        };
+        format!(
+            "// {name}: {} Wendland C2 functions of support radius {} (mesh units), through a grid \
+             index of {dx} x {dy} x {dz} cells\n{body}",
+            centres.len(),
+            level.radius(),
+        )
     }
 
     /// Writes the functions of a composite node over its children's.
@@ -376,8 +566,8 @@ impl RbfParts {
     }
 }
 
-/// The constant array of node `id`'s normalized centres and weights.
-fn constant_array(id: usize, centres: &[[f32; 4]], lang: Language) -> String {
+/// The constant array `name` of normalized centres and weights.
+fn constant_array_named(name: &str, centres: &[[f32; 4]], lang: Language) -> String {
     let n = centres.len();
     let ctor = match lang {
         Language::Glsl => "vec4",
@@ -390,12 +580,31 @@ fn constant_array(id: usize, centres: &[[f32; 4]], lang: Language) -> String {
     let body = items.join(",\n");
     match lang {
         Language::Glsl => {
-            format!("const vec4 IMPLICITIZE_RBF{id}[{n}] = vec4[{n}](\n{body}\n);\n")
+            format!("const vec4 {name}[{n}] = vec4[{n}](\n{body}\n);\n")
         }
         Language::Wgsl => format!(
-            "var<private> IMPLICITIZE_RBF{id}: array<vec4<f32>, {n}> = \
+            "var<private> {name}: array<vec4<f32>, {n}> = \
              array<vec4<f32>, {n}>(\n{body}\n);\n"
         ),
+    }
+}
+
+/// The constant integer array `name` (not empty), sixteen numbers a line.
+fn int_array(name: &str, values: &[u32], lang: Language) -> String {
+    let n = values.len();
+    let lines: Vec<String> = values
+        .chunks(16)
+        .map(|chunk| {
+            let items: Vec<String> = chunk.iter().map(u32::to_string).collect();
+            format!("    {}", items.join(", "))
+        })
+        .collect();
+    let body = lines.join(",\n");
+    match lang {
+        Language::Glsl => format!("const int {name}[{n}] = int[{n}](\n{body}\n);\n"),
+        Language::Wgsl => {
+            format!("var<private> {name}: array<i32, {n}> = array<i32, {n}>(\n{body}\n);\n")
+        }
     }
 }
 
@@ -423,13 +632,6 @@ fn check(model: &Model, name: &str) -> Result<()> {
             format!("a {}D model has no function of a 3D point to export", model.dim()),
         ));
     }
-    if model.shape().has_levels() {
-        return Err(Error::invalid(
-            name,
-            "a model with detail levels cannot be exported to a shader yet (levels are read by \
-             eval, mesh and render); fit it with `--levels 0` for a shader",
-        ));
-    }
     if !numbers_fit(model.shape()) {
         return Err(Error::invalid(
             name,
@@ -443,20 +645,30 @@ fn check(model: &Model, name: &str) -> Result<()> {
 fn numbers_fit(shape: &Shape) -> bool {
     let finite = |x: f64| (x as f32).is_finite();
     match shape {
-        Shape::Rbf(f) => {
-            let norm = f.normalization();
-            normalized_centres(f).iter().flatten().all(|x| x.is_finite())
-                && f.polynomial().iter().chain(&norm.translate).all(|&x| finite(x))
-                && finite(1.0 / norm.scale)
-        }
+        Shape::Rbf(f) => implicit_fits(f),
         Shape::Csg(c) => {
             finite(c.blend())
                 && c.children()
                     .iter()
                     .all(|child| finite(child.scale()) && numbers_fit(child.shape()))
         }
-        Shape::Levels(_) => unreachable!("`check` refuses models with detail levels"),
+        Shape::Levels(levels) => {
+            implicit_fits(levels.base())
+                && levels.levels().iter().all(|level| {
+                    finite(level.radius() / levels.base().normalization().scale)
+                        && level.weights().iter().all(|&w| finite(w))
+                })
+        }
     }
+}
+
+/// Whether every number of a variational implicit function is finite in f32.
+fn implicit_fits(f: &Implicit) -> bool {
+    let finite = |x: f64| (x as f32).is_finite();
+    let norm = f.normalization();
+    normalized_centres(f).iter().flatten().all(|x| x.is_finite())
+        && f.polynomial().iter().chain(&norm.translate).all(|&x| finite(x))
+        && finite(1.0 / norm.scale)
 }
 
 /// A finite number as a float literal both languages read, to f32 precision.
@@ -558,7 +770,15 @@ fn header(model: &Model, name: &str, lang: Language, storage: Storage) -> String
             c.operation(),
             c.children().len()
         ),
-        Shape::Levels(_) => unreachable!("`check` refuses models with detail levels"),
+        Shape::Levels(levels) => format!(
+            "level 0, a variational implicit function of {} radial basis functions (kernel {}) \
+             plus a linear polynomial, with {} detail levels of {} compactly supported functions \
+             (Wendland's C2) read through grid indexes of their supports",
+            levels.base().len(),
+            levels.base().kernel(),
+            levels.levels().len(),
+            levels.centre_count() - levels.base().len()
+        ),
     };
     let storage = match storage {
         Storage::Constants => "Its numbers are constants below.",

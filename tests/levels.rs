@@ -1,6 +1,6 @@
 //! Detail levels over the paper's fit: a deliberately coarse level 0 of a torus corrected by
 //! levels below the target, local evaluation against the sum over every centre, the model
-//! file's version 2, and the consumers that refuse levels.
+//! file's version 2, the shaders that read levels and the consumers that refuse them.
 
 use std::sync::OnceLock;
 
@@ -138,19 +138,32 @@ fn the_model_file_keeps_levels_in_version_2() {
     assert!(message.contains("detail levels in a version 1 model file"), "{message}");
 }
 
-/// Shaders (and so the viewer) and the variational morph refuse a model with levels in one
-/// line naming it; the blend morph and CSG read it through its values.
+/// Shaders (and so the viewer) read a model with levels: the WGSL validates, each level is
+/// read through the grid index of its supports, and the texture holds level 0's centres, then
+/// each level's centres, cell starts and entries. The variational morph refuses it in one line
+/// naming it; the blend morph and CSG read it through its values.
 #[test]
-fn consumers_that_do_not_read_levels_refuse_them() {
+fn shaders_read_levels_and_the_variational_morph_refuses_them() {
     let model = &fitted().model;
-    for language in [Language::Glsl, Language::Wgsl] {
-        let message = shader::source(model, "torus.json", language).unwrap_err().to_string();
-        assert!(message.starts_with("torus.json: "), "{message}");
-        assert!(message.contains("detail levels cannot be exported"), "{message}");
-        assert!(!message.contains('\n'), "{message}");
+    let wgsl = shader::source(model, "torus.json", Language::Wgsl).unwrap();
+    implicitize_test_support::wgsl::validate(&wgsl);
+    let glsl = shader::source(model, "torus.json", Language::Glsl).unwrap();
+    for k in 0..levels().levels().len() {
+        for source in [&wgsl, &glsl] {
+            assert!(source.contains(&format!("LEVEL{k}_STARTS[cell + 1]")), "level {k}");
+        }
     }
-    let texture = shader::texture_source(model, "torus.json").unwrap_err().to_string();
-    assert!(texture.contains("detail levels"), "{texture}");
+    let (_, texture) = shader::texture_source(model, "torus.json").unwrap();
+    let held: usize = levels()
+        .levels()
+        .iter()
+        .map(|l| {
+            let index = l.grid_index(shader::TEXTURE_INDEX_CELLS);
+            l.centres().len() + index.starts.len() + index.entries.len()
+        })
+        .sum();
+    let used = levels().base().len() + held;
+    assert!(texture.texels.len() / 4 >= used && texture.texels.len() / 4 < used + texture.width);
     let variational = MorphOptions { method: morph::Method::Variational, ..Default::default() };
     let message = Morph::new(model, model, &variational).err().unwrap().to_string();
     assert!(message.contains("detail levels"), "{message}");

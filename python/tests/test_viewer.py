@@ -1,10 +1,12 @@
 """The page of `implicitize view` in a real browser (headless Chromium, WebGL2 by SwiftShader):
-it draws what `implicitize render` draws, orbits and resets, draws the mesh beside the model and
+it draws what `implicitize render` draws, thin parts included, orbits and resets, draws the mesh beside the model and
 CSG composites, and its shader's values (and those of `implicitize export --format glsl`) are
 the model's `eval` in single precision.
 
 The models: the bunny (../shared/models, else the repository's triceratops) fitted once at a
-low resolution, a ball solved from constraints with the r^3 kernel, and their blended union."""
+low resolution, a ball solved from constraints with the r^3 kernel, their blended union, and the
+triceratops fitted at 150, whose brow horns are a few voxels thick, and the bunny's model with a
+detail level of small bumps (a version 2 model file)."""
 
 from __future__ import annotations
 
@@ -26,6 +28,9 @@ MESH = BUNNY if BUNNY.is_file() else TRICERATOPS
 
 # render's default view, and one from behind and below.
 VIEWS = [(35.0, 20.0), (150.0, -15.0)]
+
+# Six views around the model, from above and below.
+SIX_VIEWS = [(30.0, 20.0), (90.0, 0.0), (150.0, -15.0), (210.0, 30.0), (270.0, 10.0), (330.0, -30.0)]
 
 # The page's background with panel=0 is black; the darkest lit surface is about 48 of 255.
 BACKGROUND_MAX = 24
@@ -59,6 +64,15 @@ def models(run, tmp_path_factory) -> Path:
     run("view", d / "mesh.json", "-o", d / "side.html", "--mesh", MESH, "--report", d / "report.json")
     run("view", d / "csg.json", "-o", d / "csg.html")
     run("export", d / "mesh.json", "--format", "glsl", "-o", d / "mesh.glsl")
+    return d
+
+
+@pytest.fixture(scope="module")
+def thin(run, tmp_path_factory) -> Path:
+    """The triceratops fitted at --resolution 150 and its page."""
+    d = tmp_path_factory.mktemp("thin")
+    run("fit", TRICERATOPS, "-o", d / "thin.json", "--resolution", "150")
+    run("view", d / "thin.json", "-o", d / "thin.html")
     return d
 
 
@@ -99,6 +113,21 @@ def test_the_page_draws_what_render_draws(run, models, browser, view):
     print(f"silhouette IoU page vs render at {view}: {score:.4f} ({picture.sum()} pixels)")
     assert picture.sum() > 0.05 * picture.size, "the model fills a fair part of the frame"
     assert score >= 0.97, f"IoU {score:.4f} at view {view}"
+
+
+@pytest.mark.parametrize("view", SIX_VIEWS)
+def test_thin_parts_are_drawn_as_render_draws_them(run, thin, browser, view):
+    # Sampling the function on a coarse lattice lost the brow horns (IoU 0.970 at 30, 20); the
+    # page now marches render's lattice and skips only blocks bounded outside.
+    start = time.perf_counter()
+    open_page(browser, thin / "thin.html", f"view={view[0]},{view[1]}&panel=0")
+    page = silhouette(screenshot(browser))
+    timed(f"thin page at {view}", start)
+    picture = rendered(run, thin / "thin.json", view, thin / "render.png")[..., 3] > 0
+    score = iou(page, picture)
+    print(f"triceratops at 150: silhouette IoU page vs render at {view}: {score:.4f}")
+    assert picture.sum() > 0.05 * picture.size
+    assert score >= 0.99, f"IoU {score:.4f} at view {view}"
 
 
 def test_the_mesh_is_drawn_beside_the_model_as_render_compare_draws_them(run, models, browser):
@@ -216,3 +245,57 @@ def test_a_csg_composite_is_drawn_as_render_draws_it(run, models, browser):
     score = iou(page, picture)
     print(f"csg: silhouette IoU page vs render: {score:.4f}")
     assert score >= 0.97
+
+
+@pytest.fixture(scope="module")
+def bumpy(run, models) -> Path:
+    """The mesh's model with one detail level: at a dozen of its surface centres, Wendland
+    functions of support 6% of the model's size, each raising the surface by about half its
+    support; and its page and exported GLSL."""
+    model = json.loads((models / "mesh.json").read_text())
+    base = {k: v for k, v in model["shape"].items() if k != "type"}
+    surface = [c for c, k in zip(base["centres"], base["kinds"]) if k == "boundary"]
+    centres = np.array(surface[:: max(1, len(surface) // 12)][:12])
+    lo, hi = np.array(model["bounds"]["min"]), np.array(model["bounds"]["max"])
+    radius = 0.06 * float((hi - lo).max())
+    h = 1e-3 * radius
+    offsets = np.concatenate([np.eye(3), -np.eye(3)]) * h
+    around = (centres[:, None, :] + offsets[None]).reshape(-1, 3)
+    values = evaluated(run, models / "mesh.json", around, models).reshape(len(centres), 6)
+    slope = np.linalg.norm((values[:, :3] - values[:, 3:]) / (2 * h), axis=1)
+    level = {"radius": radius, "centres": centres.tolist(), "weights": (0.5 * radius * slope).tolist()}
+    model.update(version=2, shape={"type": "levels", "base": base, "levels": [level]})
+    model.pop("report", None)
+    path = models / "bumpy.json"
+    path.write_text(json.dumps(model))
+    run("view", path, "-o", models / "bumpy.html")
+    run("export", path, "--format", "glsl", "-o", models / "bumpy.glsl")
+    return path
+
+
+@pytest.mark.parametrize("view", SIX_VIEWS[::2])
+def test_a_model_with_detail_levels_is_drawn_as_render_draws_it(run, models, bumpy, browser, view):
+    open_page(browser, bumpy.with_suffix(".html"), f"view={view[0]},{view[1]}&panel=0")
+    page = silhouette(screenshot(browser))
+    picture = rendered(run, bumpy, view, models / "bumpy.png")[..., 3] > 0
+    alone = rendered(run, models / "mesh.json", view, models / "alone.png")[..., 3] > 0
+    assert iou(picture, alone) < 0.998, "the bumps change the silhouette"
+    score = iou(page, picture)
+    print(f"levels: silhouette IoU page vs render at {view}: {score:.4f} (level 0 alone {iou(picture, alone):.4f})")
+    assert score >= 0.99, f"IoU {score:.4f} at view {view}"
+
+
+def test_the_shader_values_of_a_model_with_levels_equal_eval_to_1e5_of_the_range(run, models, bumpy, browser):
+    points = grid(bumpy, 16)
+    # And the points around the bumps, where the level acts.
+    level = json.loads(bumpy.read_text())["shape"]["levels"][0]
+    centres, radius = np.array(level["centres"]), level["radius"]
+    rng = np.random.default_rng(3)
+    near = centres[rng.integers(len(centres), size=1024)] + rng.uniform(-radius, radius, (1024, 3))
+    points = np.concatenate([points[: 4096 - 1024], near.astype(np.float32).astype(np.float64)])
+    values = evaluated(run, bumpy, points, models)
+    open_page(browser, bumpy.with_suffix(".html"))
+    for name, source in (("page", None), ("exported GLSL", bumpy.with_suffix(".glsl").read_text())):
+        error = relative_value_error(on_gpu(browser, points, source), values)
+        print(f"levels: the {name}'s values vs eval at {len(points)} points, {error:.2e} of the range")
+        assert error <= 1e-5

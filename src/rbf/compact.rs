@@ -283,6 +283,25 @@ impl DetailLevel {
         sum / (self.radius * self.radius)
     }
 
+    /// The centres whose support may meet the box `[min, max]` (every one that does, each
+    /// once), read from the cells of the support index the box meets.
+    pub fn centres_near(&self, min: DVec3, max: DVec3) -> Vec<u32> {
+        let (lo, hi) = (cell_of(min, self.radius), cell_of(max, self.radius));
+        let mut near = Vec::new();
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    if let Some(&(start, end)) = self.index.cells.get(&[x, y, z]) {
+                        near.extend_from_slice(&self.index.entries[start as usize..end as usize]);
+                    }
+                }
+            }
+        }
+        near.sort_unstable();
+        near.dedup();
+        near
+    }
+
     /// `g(p)` summed over every centre: the oracle of [`DetailLevel::value`].
     pub fn value_brute_force(&self, p: DVec3) -> f64 {
         self.centres
@@ -323,6 +342,86 @@ impl DetailLevel {
             starts.push(columns.len());
         }
         SparseMatrix { starts, columns, values }
+    }
+
+    /// A dense grid index of the supports, for shaders ([`crate::shader`]): a uniform grid of
+    /// cubic cells over the supports' box, each cell listing every centre whose support meets
+    /// it, with at most about `max_cells` cells (the side is the support radius, or larger when
+    /// that would make more).
+    pub fn grid_index(&self, max_cells: usize) -> GridIndex {
+        let rho = self.radius;
+        let Some(hull) = crate::geometry::Aabb::of_points(&self.centres) else {
+            return GridIndex {
+                origin: DVec3::ZERO,
+                side: rho,
+                dims: [1; 3],
+                starts: vec![0, 0],
+                entries: vec![],
+            };
+        };
+        let (min, size) = (hull.min - rho, hull.size() + 2.0 * rho);
+        let count = |side: f64| (size / side).ceil().max(DVec3::ONE).as_uvec3();
+        let mut side = rho;
+        while count(side).as_u64vec3().element_product() > max_cells.max(1) as u64 {
+            side *= 1.1;
+        }
+        let dims = count(side).to_array().map(|d| d as usize);
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); dims.iter().product()];
+        for (j, &c) in self.centres.iter().enumerate() {
+            let cell = |p: DVec3| ((p - min) / side).floor().max(DVec3::ZERO).as_uvec3();
+            let (lo, hi) = (cell(c - rho), cell(c + rho));
+            for z in lo.z..=hi.z.min(dims[2] as u32 - 1) {
+                for y in lo.y..=hi.y.min(dims[1] as u32 - 1) {
+                    for x in lo.x..=hi.x.min(dims[0] as u32 - 1) {
+                        let corner =
+                            min + side * DVec3::new(f64::from(x), f64::from(y), f64::from(z));
+                        let near = (corner - c).max(DVec3::ZERO).max(c - corner - side);
+                        if near.length_squared() < rho * rho {
+                            let at = (z as usize * dims[1] + y as usize) * dims[0] + x as usize;
+                            lists[at].push(j as u32);
+                        }
+                    }
+                }
+            }
+        }
+        let mut starts = Vec::with_capacity(lists.len() + 1);
+        let mut entries = Vec::new();
+        starts.push(0);
+        for list in lists {
+            entries.extend(list);
+            starts.push(entries.len() as u32);
+        }
+        GridIndex { origin: min, side, dims, starts, entries }
+    }
+}
+
+/// A dense uniform grid over the supports of one detail level ([`DetailLevel::grid_index`]):
+/// the centres that can cover a point are `entries[starts[c]..starts[c + 1]]` for the point's
+/// cell `c = (z * dims[1] + y) * dims[0] + x`; points outside the grid are covered by none.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GridIndex {
+    /// The grid's least corner, mesh units.
+    pub origin: DVec3,
+    /// The side of a cell, mesh units.
+    pub side: f64,
+    /// Cells per axis.
+    pub dims: [usize; 3],
+    /// Where each cell's run of `entries` starts; one more than there are cells.
+    pub starts: Vec<u32>,
+    /// Centre numbers, cell after cell.
+    pub entries: Vec<u32>,
+}
+
+impl GridIndex {
+    /// The centres listed for the cell holding `p`.
+    pub fn near(&self, p: DVec3) -> &[u32] {
+        let g = ((p - self.origin) / self.side).floor();
+        let dims = DVec3::new(self.dims[0] as f64, self.dims[1] as f64, self.dims[2] as f64);
+        if g.cmplt(DVec3::ZERO).any() || g.cmpge(dims).any() {
+            return &[];
+        }
+        let at = (g.z as usize * self.dims[1] + g.y as usize) * self.dims[0] + g.x as usize;
+        &self.entries[self.starts[at] as usize..self.starts[at + 1] as usize]
     }
 }
 
@@ -447,6 +546,30 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The dense grid index lists, for points inside and around the supports, every centre
+    /// whose support covers the point, at the radius's cells and at coarser ones.
+    #[test]
+    fn the_grid_index_lists_every_centre_that_covers_a_point() {
+        let centres: Vec<DVec3> = random_points(300, 8).into_iter().map(|p| p * 4.0).collect();
+        let level = DetailLevel::new("test", 0.5, centres.clone(), vec![1.0; 300]).unwrap();
+        for max_cells in [1_000_000, 200, 1] {
+            let index = level.grid_index(max_cells);
+            let cells = index.dims.iter().product::<usize>();
+            assert!(cells <= max_cells.max(1), "{cells} cells for at most {max_cells}");
+            assert_eq!(index.starts.len(), cells + 1);
+            for p in random_points(2000, 9).into_iter().map(|p| p * 5.0 - 0.5) {
+                let listed = index.near(p);
+                for (j, &c) in centres.iter().enumerate() {
+                    if p.distance(c) < 0.5 {
+                        assert!(listed.contains(&(j as u32)), "centre {j} covers {p}");
+                    }
+                }
+            }
+        }
+        let fine = level.grid_index(1_000_000);
+        assert_eq!(fine.side, 0.5, "the support radius when cells allow");
     }
 
     /// The index finds every centre that covers a point: local and brute-force sums agree to

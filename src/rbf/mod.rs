@@ -92,7 +92,7 @@ use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::geometry::DVec3;
 
-pub use compact::{CG_TOLERANCE, DetailLevel, SparseSolve, wendland};
+pub use compact::{CG_TOLERANCE, DetailLevel, GridIndex, SparseSolve, wendland};
 pub use csv::{read_constraints, read_constraints_bytes, read_points, read_points_bytes};
 pub use grid::evaluate_on_grid;
 pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};

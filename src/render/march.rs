@@ -77,27 +77,26 @@ const COARSE_TOLERANCE: f32 = 1.0;
 /// Sub-steps at which the interpolant is checked inside one cell.
 const SUB_STEPS: usize = 3;
 
-/// Exact field samples on a lattice, known near the surface only.
-pub(crate) struct Lattice {
-    origin: DVec3,
-    step: f64,
-    /// Cells per axis (multiples of [`BLOCK`]).
-    cells: [usize; 3],
-    /// Samples at the `(cells + 1)` lattice points per axis, C order; NaN where not sampled.
-    values: Vec<f32>,
-    /// Per block of `BLOCK`^3 cells: whether one of its cells changes sign.
-    blocks: Vec<bool>,
-    /// How many exact samples were taken.
-    pub(crate) samples: usize,
+/// Where the march's lattice lies: cubic cells of side `step` from the corner `origin`, `cells`
+/// per axis, around the bounds with two cells to spare on every side. The page of
+/// `implicitize view` samples the same lattice, so it draws what [`super::render_field`] draws.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LatticeGeometry {
+    /// The lattice's least corner.
+    pub origin: DVec3,
+    /// The side of a cell: the longest side of the bounds over `March::cells` (rounded up to a
+    /// multiple of 8).
+    pub step: f64,
+    /// Cells per axis, multiples of 8.
+    pub cells: [usize; 3],
 }
 
-impl Lattice {
-    /// Samples `field` around `bounds` with `march.cells` cells along the longest side.
-    pub(crate) fn sample<F: Field + ?Sized>(
-        field: &F,
-        bounds: &Aabb,
-        march: March,
-    ) -> Result<Lattice> {
+impl LatticeGeometry {
+    /// The lattice [`super::render_field`] marches through around `bounds`.
+    ///
+    /// # Errors
+    /// Bounds that are not finite or have no extent, or `march.cells` out of range.
+    pub fn new(bounds: &Aabb, march: March) -> Result<LatticeGeometry> {
         let size = bounds.size();
         let longest = size.max_element();
         let finite = bounds.min.is_finite() && bounds.max.is_finite();
@@ -121,9 +120,35 @@ impl Lattice {
         let cells = [size.x, size.y, size.z]
             .map(|s| ((s / step).ceil() as usize + 4).next_multiple_of(BLOCK).max(BLOCK));
         let extent = DVec3::new(cells[0] as f64, cells[1] as f64, cells[2] as f64) * step;
+        Ok(LatticeGeometry { origin: bounds.center() - 0.5 * extent, step, cells })
+    }
+}
+
+/// Exact field samples on a lattice, known near the surface only.
+pub(crate) struct Lattice {
+    origin: DVec3,
+    step: f64,
+    /// Cells per axis (multiples of [`BLOCK`]).
+    cells: [usize; 3],
+    /// Samples at the `(cells + 1)` lattice points per axis, C order; NaN where not sampled.
+    values: Vec<f32>,
+    /// Per block of `BLOCK`^3 cells: whether one of its cells changes sign.
+    blocks: Vec<bool>,
+    /// How many exact samples were taken.
+    pub(crate) samples: usize,
+}
+
+impl Lattice {
+    /// Samples `field` around `bounds` with `march.cells` cells along the longest side.
+    pub(crate) fn sample<F: Field + ?Sized>(
+        field: &F,
+        bounds: &Aabb,
+        march: March,
+    ) -> Result<Lattice> {
+        let LatticeGeometry { origin, step, cells } = LatticeGeometry::new(bounds, march)?;
         let points = (cells[0] + 1) * (cells[1] + 1) * (cells[2] + 1);
         let mut lattice = Lattice {
-            origin: bounds.center() - 0.5 * extent,
+            origin,
             step,
             cells,
             values: vec![f32::NAN; points],

@@ -45,7 +45,7 @@ mod raster;
 pub use camera::Camera;
 pub use color::Coloring;
 pub use image::Image;
-pub use march::March;
+pub use march::{LatticeGeometry, March};
 pub use raster::Shading;
 
 use crate::error::{Error, Result};

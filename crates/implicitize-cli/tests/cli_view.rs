@@ -8,8 +8,10 @@ use std::process::{Command, Output};
 
 use implicitize::DVec3;
 use implicitize::csg::{Child, Composite, Operation};
+use implicitize::levels::MultiScale;
 use implicitize::model::Model;
-use implicitize_test_support::models::{ball, disc_2d};
+use implicitize::rbf::DetailLevel;
+use implicitize_test_support::models::{ball, disc_2d, sphere_directions};
 use implicitize_test_support::wgsl;
 
 fn implicitize() -> Command {
@@ -31,7 +33,7 @@ fn failure(command: &mut Command) -> String {
     stderr
 }
 
-/// A ball, a blended difference of two balls, a 2D disc, a cube mesh and a file that is not a
+/// A ball, a blended difference of two balls, the ball with a detail level of bumps, a 2D disc, a cube mesh and a file that is not a
 /// model, in a temporary folder.
 struct Inputs {
     dir: tempfile::TempDir,
@@ -43,6 +45,12 @@ impl Inputs {
         let a = ball(DVec3::ZERO, 1.0, 1.0);
         let b = ball(DVec3::new(0.9, 0.2, 0.0), 0.6, 2.0);
         a.save(&dir.path().join("ball.json")).unwrap();
+        let base = a.shape().implicit().unwrap().clone();
+        let centres: Vec<DVec3> = sphere_directions(30);
+        let weights = (0..30).map(|i| 0.1 + 0.02 * f64::from(i % 5)).collect();
+        let level = DetailLevel::new("bumps", 0.3, centres, weights).unwrap();
+        let levels = MultiScale::new("bumps", base, vec![level]).unwrap();
+        Model::from_levels(levels, a.bounds(), None).save(&dir.path().join("levels.json")).unwrap();
         let children = vec![Child::from(a), Child::from(b)];
         let composite = Composite::new("test", Operation::Difference, 0.1, children).unwrap();
         Model::from_composite(composite).unwrap().save(&dir.path().join("csg.json")).unwrap();
@@ -139,7 +147,7 @@ fn compile_glsl(source: &str, dir: &Path) {
 #[test]
 fn exported_glsl_compiles_and_wgsl_validates() {
     let inputs = Inputs::new();
-    for model in ["ball", "csg"] {
+    for model in ["ball", "csg", "levels"] {
         for format in ["glsl", "wgsl"] {
             let out = inputs.path(&format!("{model}.{format}"));
             run(implicitize()

@@ -2,7 +2,11 @@
 //!
 //! The page (the template `view.html`, filled here) ray-marches the model's function in a
 //! WebGL2 fragment shader: the GLSL of [`implicitize::shader::texture_source`], its centres and
-//! weights in an RGBA32F texture. It frames the model as `render` does, opens at the camera of
+//! weights in an RGBA32F texture. It marches through the lattice `render` marches through
+//! ([`LatticeGeometry`]), sampled on the GPU, and crosses in one step the blocks of
+//! [`BLOCK`]^3 cells where an upper bound of the function ([`implicitize::bound`], computed
+//! here, split to half a cell where it cannot tell) is not positive, so no part of the surface
+//! is skipped. It frames the model as `render` does, opens at the camera of
 //! its address (`#view=AZIMUTH,ELEVATION`, `&panel=0` for the bare picture), orbits by dragging
 //! and zooms by the wheel. With `--mesh` it also draws the mesh, beside the model or instead of
 //! it. Everything (script, styles, numbers) is inside the one file, so it works offline.
@@ -11,8 +15,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::Args;
+use implicitize::bound::block_uppers;
 use implicitize::model::Model;
-use implicitize::render::{DEFAULT_VIEW, march_bounds};
+use implicitize::render::{DEFAULT_VIEW, LatticeGeometry, March, march_bounds};
 use implicitize::shape::Shape;
 use implicitize::{Aabb, Mesh, output, shader};
 use serde_json::{Value, json};
@@ -24,6 +29,13 @@ const TEMPLATE: &str = include_str!("view.html");
 
 /// Where the data goes in the template.
 const DATA_MARK: &str = "/*IMPLICITIZE-DATA*/";
+
+/// Cells along each side of a block the page bounds the function over.
+pub const BLOCK: usize = 4;
+
+/// How many times a block is split in eight where its bound cannot tell its sign: down to
+/// half a cell.
+pub const SPLITS: u32 = 3;
 
 /// The most triangles of a `--mesh` the page takes: 2 million triangles make a page of about
 /// 50 MB, which browsers still open; decimate larger meshes first.
@@ -66,12 +78,20 @@ pub fn run(args: &ViewArgs, progress: Progress) -> anyhow::Result<()> {
         }
         None => None,
     };
+    let lattice = LatticeGeometry::new(&march_bounds(&model), March::default())?;
+    let (uppers, blocks) = block_uppers(model.shape(), &lattice, BLOCK, SPLITS);
+    let upper: Vec<f32> = uppers.iter().map(|&u| upper_f32(u)).collect();
     let model_bytes = std::fs::metadata(&args.model).map(|m| m.len()).unwrap_or(0);
     let data = json!({
         "name": name,
         "view": DEFAULT_VIEW,
         "frame": box_json(&frame),
-        "march": box_json(&march_bounds(&model)),
+        "lattice": {
+            "origin": lattice.origin.to_array(),
+            "step": lattice.step,
+            "cells": lattice.cells,
+        },
+        "blocks": { "block": BLOCK, "dims": blocks, "upper": base64(&f32_bytes(&upper)) },
         "glsl": glsl,
         "texture": {
             "width": texture.width,
@@ -152,6 +172,13 @@ fn describe(shape: &Shape) -> String {
     match shape {
         Shape::Rbf(f) => format!("{} radial basis functions, kernel {}", f.len(), f.kernel()),
         Shape::Csg(c) => format!("CSG {} of {} shapes", c.operation(), c.children().len()),
+        Shape::Levels(l) => format!(
+            "{} radial basis functions, kernel {}, with {} detail levels of {} more",
+            l.base().len(),
+            l.base().kernel(),
+            l.levels().len(),
+            l.centre_count() - l.base().len()
+        ),
         _ => "a shape".into(),
     }
 }
@@ -161,7 +188,20 @@ fn centre_count(shape: &Shape) -> usize {
     match shape {
         Shape::Rbf(f) => f.len(),
         Shape::Csg(c) => c.children().iter().map(|child| centre_count(child.shape())).sum(),
+        Shape::Levels(l) => l.centre_count(),
         _ => 0,
+    }
+}
+
+/// An upper bound in f32 that stays one: positive bounds stay positive, and one that is not a
+/// number (nothing known) becomes infinite.
+fn upper_f32(hi: f64) -> f32 {
+    if hi.is_nan() {
+        f32::INFINITY
+    } else if hi > 0.0 {
+        (hi as f32).max(f32::MIN_POSITIVE)
+    } else {
+        hi as f32
     }
 }
 
