@@ -75,7 +75,7 @@ impl Default for LevelOptions {
             base_target_error: 2.0,
             first_radius: 4.0,
             min_radius: 1.5,
-            spacing: 0.3,
+            spacing: 0.4,
             hot_fraction: 0.5,
         }
     }
@@ -156,10 +156,11 @@ pub fn applies(goal: &Goal, options: &FitOptions) -> bool {
 
 /// Bytes per goal surface point a multi-scale fit holds beyond the fit's grids: the point, its
 /// residual and error and their copies as candidates, at worst a centre of the finest level
-/// with its sparse row (about pi / spacing^2 neighbours of 12 bytes), index entries and solve
-/// vectors, and the band voxels beside it (index and value, 8 bytes each, at most 2 x 16 of
-/// them, a band being at most `first_radius` voxels of level 0 wide).
-pub const BYTES_PER_POINT: u64 = 900;
+/// with its sparse row (about pi / spacing^2 neighbours of 12 bytes), its support index
+/// entries (about 84 of 4 bytes) and solve vectors, and the band voxels beside it (index and
+/// value, 8 bytes each, at most 2 x 16 of them, a band being at most `first_radius` voxels of
+/// level 0 wide).
+pub const BYTES_PER_POINT: u64 = 1000;
 
 /// Level 0 on the pyramid's coarsest goal, then detail levels on `goal` (see the module doc).
 /// `on_iteration` sees level 0's iterations, their errors in voxels of `goal`'s grid.
