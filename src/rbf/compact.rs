@@ -66,8 +66,8 @@ pub const CG_TOLERANCE: f64 = 1e-10;
 /// makes need tens to a few hundred).
 const CG_MAX_ITERATIONS: usize = 5000;
 
-/// A hasher for cell keys: a multiply and a rotate per word, enough for keys that are small
-/// integer triples (std's default SipHash costs several times more per lookup).
+/// A hasher for cell keys (one `u64` each): a multiply and a fold, enough for keys that pack
+/// small integer triples (std's default SipHash costs several times more per lookup).
 #[derive(Default)]
 struct CellHasher(u64);
 
@@ -82,20 +82,36 @@ impl Hasher for CellHasher {
         }
     }
 
-    fn write_i64(&mut self, v: i64) {
-        self.write_u64(v as u64);
-    }
-
     fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0.rotate_left(21) ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let h = (self.0 ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        self.0 = h ^ (h >> 29);
     }
 }
 
-type Cells<V> = HashMap<[i64; 3], V, BuildHasherDefault<CellHasher>>;
+type Cells<V> = HashMap<u64, V, BuildHasherDefault<CellHasher>>;
 
-/// The cell of side `side` holding `p`.
+/// Bits of each coordinate in a cell's key.
+const KEY_BITS: u32 = 21;
+
+/// The key of the cell of side `side` holding `p`: its integer coordinates' low
+/// [`KEY_BITS`] bits packed. Cells `2^KEY_BITS` apart share a key (far beyond any model's
+/// supports); a point in such a cell reads centres that are too far to count, which every
+/// reader checks.
 #[inline]
-fn cell_of(p: DVec3, side: f64) -> [i64; 3] {
+fn cell_of(p: DVec3, side: f64) -> u64 {
+    key_of(cell_coordinates(p, side))
+}
+
+/// The key of the cell of integer coordinates `c`.
+#[inline]
+fn key_of(c: [i64; 3]) -> u64 {
+    let mask = (1u64 << KEY_BITS) - 1;
+    c.iter().fold(0, |key, &x| (key << KEY_BITS) | (x as u64 & mask))
+}
+
+/// The integer coordinates of the cell of side `side` holding `p`.
+#[inline]
+fn cell_coordinates(p: DVec3, side: f64) -> [i64; 3] {
     (p / side).floor().as_i64vec3().to_array()
 }
 
@@ -118,27 +134,33 @@ struct SupportIndex {
 impl SupportIndex {
     fn new(centres: &[DVec3], rho: f64) -> SupportIndex {
         let side = rho / CELLS_PER_RADIUS;
-        let mut lists: Cells<Vec<u32>> = Cells::default();
-        for (j, &c) in centres.iter().enumerate() {
-            let lo = cell_of(c - DVec3::splat(rho), side);
-            let hi = cell_of(c + DVec3::splat(rho), side);
-            for x in lo[0]..=hi[0] {
-                for y in lo[1]..=hi[1] {
-                    for z in lo[2]..=hi[2] {
-                        if box_distance2(c, [x, y, z], side) < rho * rho {
-                            lists.entry([x, y, z]).or_default().push(j as u32);
+        let mut pairs: Vec<(u64, u32)> = centres
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(j, &c)| {
+                let lo = cell_coordinates(c - DVec3::splat(rho), side);
+                let hi = cell_coordinates(c + DVec3::splat(rho), side);
+                let mut cells = Vec::new();
+                for x in lo[0]..=hi[0] {
+                    for y in lo[1]..=hi[1] {
+                        for z in lo[2]..=hi[2] {
+                            if box_distance2(c, [x, y, z], side) < rho * rho {
+                                cells.push((key_of([x, y, z]), j as u32));
+                            }
                         }
                     }
                 }
-            }
-        }
+                cells
+            })
+            .collect();
+        pairs.par_sort_unstable();
         let mut cells = Cells::default();
-        let mut entries = Vec::with_capacity(lists.values().map(Vec::len).sum());
-        for (key, list) in lists {
-            let start = entries.len() as u32;
-            entries.extend(list);
-            cells.insert(key, (start, entries.len() as u32));
+        let mut start = 0;
+        for run in pairs.chunk_by(|a, b| a.0 == b.0) {
+            cells.insert(run[0].0, (start as u32, (start + run.len()) as u32));
+            start += run.len();
         }
+        let entries = pairs.into_iter().map(|(_, j)| j).collect();
         SupportIndex { side, cells, entries }
     }
 
@@ -152,7 +174,7 @@ impl SupportIndex {
     }
 
     fn bytes(&self) -> usize {
-        self.entries.len() * 4 + self.cells.len() * 40
+        self.entries.len() * 4 + self.cells.len() * 24
     }
 }
 
