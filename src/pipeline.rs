@@ -35,6 +35,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::distance;
@@ -581,7 +583,8 @@ fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
 impl<'a> Prepared<'a> {
     /// Places the grid around `mesh`, checks the fit's memory estimate on it, voxelizes the
     /// mesh and computes the goal (signed distance, boundary voxels, radii of regularity), to
-    /// which the sub-voxel measure ([`ErrorMeasure::SubVoxel`]) adds the mesh's exact distance
+    /// which a fit with detail levels adds points on the mesh ([`Goal::with_mesh_points`]) and
+    /// the sub-voxel measure ([`ErrorMeasure::SubVoxel`]) adds the mesh's exact distance
     /// query ([`Goal::with_mesh`]). `source` names the mesh in errors.
     ///
     /// # Errors
@@ -601,6 +604,12 @@ impl<'a> Prepared<'a> {
         let voxelized =
             voxelize::voxelize(mesh, &grid, &options.voxelize).map_err(|e| e.in_context(source))?;
         let mut goal = Goal::from_density(voxelized.density, &options.fit.regularity);
+        if fit::levels::applies(&goal, &options.fit) {
+            let mut rng = ChaCha8Rng::seed_from_u64(options.fit.seed);
+            if let Some(points) = surface_distance::sample(mesh, goal.surface().len(), &mut rng) {
+                goal = goal.with_mesh_points(points);
+            }
+        }
         if options.fit.error_measure == ErrorMeasure::SubVoxel {
             let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
             goal = goal.with_mesh(Arc::new(query));

@@ -229,6 +229,7 @@ def fit(
     max_iterations: Optional[int] = None,
     subvoxel: bool = False,
     full_resolution: bool = False,
+    levels: Optional[int] = None,
     memory_limit: _Memory = None,
 ) -> Model:
     """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``.
@@ -238,9 +239,10 @@ def fit(
     (default {seed}) seeds every random choice (same seed, same model file); ``method`` is
     ``"iterative"`` (paper 5, the default) or ``"naive"`` (paper 3.2); at most
     ``max_constraints`` constraints (default {max_constraints}, {naive_max_constraints} for the
-    naive method) and ``max_iterations`` iterations (default {max_iterations}); ``progress``
-    prints one line per iteration on stderr; ``memory_limit`` as in :func:`voxelize`. The GIL
-    is released while fitting.
+    naive method) and ``max_iterations`` iterations (default {max_iterations}); on grids of
+    {levels_min_axis} voxels or more, at most ``levels`` detail levels (default {levels}; 0 fits
+    one function as the paper does); ``progress`` prints one line per iteration on stderr;
+    ``memory_limit`` as in :func:`voxelize`. The GIL is released while fitting.
     """
     return _fit(
         _mesh_arg(mesh),
@@ -252,6 +254,7 @@ def fit(
         max_iterations=max_iterations,
         subvoxel=subvoxel,
         full_resolution=full_resolution,
+        levels=None if levels is None else int(levels),
         progress=progress,
         memory_limit=memory_limit,
     )

@@ -131,6 +131,7 @@ def fit(
     max_iterations: Optional[int] = None,
     subvoxel: bool = False,
     full_resolution: bool = False,
+    levels: Optional[int] = None,
     memory_limit: _Memory = None,
 ) -> Model:
     """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``; None is

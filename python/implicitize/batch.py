@@ -77,6 +77,12 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--subvoxel", action="store_true")
     parser.add_argument("--full-resolution", action="store_true")
     parser.add_argument(
+        "--levels",
+        type=int,
+        help=f"detail levels on grids of {defaults['levels_min_axis']} voxels or more "
+        f"(default {defaults['levels']}; 0: none)",
+    )
+    parser.add_argument(
         "--memory-limit",
         help="bytes, or a size such as 2G (default: the machine's available memory)",
     )
@@ -94,6 +100,7 @@ def _options(args: argparse.Namespace) -> Dict[str, Any]:
         "max_iterations": args.max_iterations,
         "subvoxel": args.subvoxel,
         "full_resolution": args.full_resolution,
+        "levels": args.levels,
         "sdf": args.sdf,
         "samples": args.samples,
         "memory_limit": args.memory_limit,

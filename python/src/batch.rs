@@ -27,8 +27,8 @@ pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
 #[pyfunction]
 #[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=None,
                     seed=None, max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, sdf=false, samples=None,
-                    memory_limit=None))]
+                    subvoxel=false, full_resolution=false, levels=None, sdf=false,
+                    samples=None, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn batch_convert(
     py: Python<'_>,
@@ -44,6 +44,7 @@ pub fn batch_convert(
     max_iterations: Option<i64>,
     subvoxel: bool,
     full_resolution: bool,
+    levels: Option<i64>,
     sdf: bool,
     samples: Option<i64>,
     memory_limit: Option<MemoryArg>,
@@ -66,6 +67,7 @@ pub fn batch_convert(
         max_iterations,
         subvoxel,
         full_resolution,
+        levels,
         memory_limit,
     }
     .options()?;

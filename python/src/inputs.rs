@@ -209,6 +209,8 @@ pub struct FitArgs {
     pub subvoxel: bool,
     /// No start at half the resolution.
     pub full_resolution: bool,
+    /// At most this many detail levels (0: none).
+    pub levels: Option<i64>,
     /// The memory the fit may use.
     pub memory_limit: Option<MemoryArg>,
 }
@@ -239,6 +241,10 @@ impl FitArgs {
             fit.error_measure = ErrorMeasure::SubVoxel;
         }
         fit.coarse_start = !self.full_resolution;
+        if let Some(n) = self.levels {
+            fit.levels.max_levels = usize::try_from(n)
+                .map_err(|_| invalid(format!("levels must be a count of 0 or more, not {n}")))?;
+        }
         options.memory_limit = memory_limit(self.memory_limit)?;
         options.check().map_err(to_py)?;
         Ok(options)

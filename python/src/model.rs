@@ -10,6 +10,7 @@ use implicitize::pipeline::{self, FitObserver, FitOutputs, PolygonizeOptions};
 use implicitize::render::{
     Camera, Coloring, DEFAULT_SIZE, DEFAULT_VIEW, March, march_bounds, render_field,
 };
+use implicitize::shape::Shape;
 use implicitize::{DVec3, Field, Implicit, Model};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
@@ -236,9 +237,15 @@ impl PyModel {
     }
 
     fn __repr__(&self) -> String {
-        let kind = match self.model.implicit() {
-            Some(implicit) => format!("{} constraints", implicit.constraints().len()),
-            None => "a composite".into(),
+        let kind = match self.model.shape() {
+            Shape::Rbf(implicit) => format!("{} constraints", implicit.constraints().len()),
+            Shape::Levels(levels) => format!(
+                "{} constraints and {} detail levels of {} centres",
+                levels.base().constraints().len(),
+                levels.levels().len(),
+                levels.centre_count() - levels.base().len()
+            ),
+            _ => "a composite".into(),
         };
         format!("<implicitize.Model {}D, {kind}>", self.model.dim())
     }
@@ -260,7 +267,8 @@ impl FitObserver for Progress {
 #[pyfunction]
 #[pyo3(signature = (mesh, resolution=None, dims=None, target_error=None, seed=None,
                     max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, progress=false, memory_limit=None))]
+                    subvoxel=false, full_resolution=false, levels=None, progress=false,
+                    memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -274,6 +282,7 @@ pub fn fit(
     max_iterations: Option<i64>,
     subvoxel: bool,
     full_resolution: bool,
+    levels: Option<i64>,
     progress: bool,
     memory_limit: Option<MemoryArg>,
 ) -> PyResult<PyModel> {
@@ -287,6 +296,7 @@ pub fn fit(
         max_iterations,
         subvoxel,
         full_resolution,
+        levels,
         memory_limit,
     }
     .options()?;

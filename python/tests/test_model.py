@@ -123,3 +123,67 @@ def test_csg_is_the_cli_composite(tmp_path, run, triceratops, cli_model, operati
     combined = getattr(implicitize, operation)(a, b, blend=0.2)
     combined.save(tmp_path / "ours.json")
     assert (tmp_path / "ours.json").read_bytes() == out.read_bytes()
+
+
+def _wendland(t):
+    t = np.minimum(t, 1.0)
+    return (1.0 - t) ** 4 * (4.0 * t + 1.0)
+
+
+@pytest.fixture(scope="module")
+def levelled(tmp_path_factory, model):
+    """The triceratops' model with one detail level written over it (model format 2): the
+    model, its level (radius, centres, weights) and the file."""
+    folder = tmp_path_factory.mktemp("levels")
+    single = folder / "single.json"
+    model.save(single)
+    data = json.loads(single.read_text())
+    lo, hi = (np.array(b) for b in model.bounds)
+    radius = 0.2 * float(np.max(hi - lo))
+    centres = lo + np.array([[0.3, 0.5, 0.5], [0.6, 0.4, 0.5], [0.5, 0.5, 0.7]]) * (hi - lo)
+    weights = np.array([0.02, -0.015, 0.01])
+    level = {"radius": radius, "centres": centres.tolist(), "weights": weights.tolist()}
+    data["version"] = 2
+    data["shape"] = {"type": "levels", "base": data["shape"], "levels": [level]}
+    path = folder / "levels.json"
+    path.write_text(json.dumps(data))
+    return implicitize.load(path), (radius, centres, weights), path
+
+
+def test_a_levelled_model_adds_its_wendland_functions_to_level_0(model, levelled, points):
+    levels, (radius, centres, weights), _ = levelled
+    distances = np.linalg.norm(points[:, None, :] - centres[None, :, :], axis=2)
+    expected = model(points) + (_wendland(distances / radius) * weights).sum(axis=1)
+    assert np.allclose(levels(points), expected, rtol=0, atol=1e-12)
+    assert "1 detail levels of 3 centres" in repr(levels)
+
+
+def test_a_levelled_model_s_gradient_is_the_derivative_of_its_value(levelled, points):
+    levels = levelled[0]
+    p, h = points[:200], 1e-6
+    numeric = np.stack(
+        [(levels(p + h * e) - levels(p - h * e)) / (2 * h) for e in np.eye(3)], axis=1
+    )
+    assert np.allclose(levels.gradient(p), numeric, rtol=1e-5, atol=1e-6)
+
+
+def test_a_levelled_model_pickles_saves_and_matches_cli_eval(tmp_path, run, levelled, points):
+    levels, _, path = levelled
+    again = pickle.loads(pickle.dumps(levels))
+    assert np.array_equal(again(points), levels(points))
+    np.save(tmp_path / "points.npy", points)
+    run("eval", path, "--points", tmp_path / "points.npy", "-o", tmp_path / "values.npy")
+    assert np.array_equal(np.load(tmp_path / "values.npy"), levels(points))
+    levels.save(tmp_path / "saved.json")
+    assert json.loads((tmp_path / "saved.json").read_text())["version"] == 2
+
+
+def test_fit_takes_levels_and_refuses_a_negative_count(triceratops):
+    assert implicitize.DEFAULTS["levels"] >= 1
+    with pytest.raises(ValueError, match="levels must be a count"):
+        implicitize.fit(triceratops, resolution=24, levels=-1)
+    # Below the grid size where levels apply, `levels` changes nothing.
+    a = implicitize.fit(triceratops, resolution=24, seed=1, levels=0)
+    b = implicitize.fit(triceratops, resolution=24, seed=1)
+    corners = np.array(a.bounds)
+    assert np.array_equal(a(corners), b(corners)) and "levels" not in a.report

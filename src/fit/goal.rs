@@ -36,7 +36,14 @@ pub struct Goal {
     /// The mesh the densities were voxelized from, for [`Goal::fine_signed_distance`] to
     /// measure its exact distance (see [`Goal::with_mesh`]).
     mesh: Option<Arc<MeshDistance>>,
+    /// Points on the mesh's triangles where the goal agrees with it, mesh units (see
+    /// [`Goal::with_mesh_points`]).
+    mesh_points: Option<Vec<DVec3>>,
 }
+
+/// A point sampled on the mesh is kept for the detail levels where the goal's sub-voxel
+/// signed distance there is at most this, in voxels.
+pub const MESH_AGREEMENT: f32 = 1.0;
 
 impl Goal {
     /// The goal of a density volume (from [`crate::voxelize::voxelize`], or an image in 2D).
@@ -47,13 +54,32 @@ impl Goal {
         let surface: Vec<DVec3> =
             boundary.par_iter().map(|&v| distance::surface_point(&density, v)).collect();
         let disks = SurfaceDisks::new(&surface, &density);
-        Goal { density, sd, boundary, rreg, surface, disks, mesh: None }
+        Goal { density, sd, boundary, rreg, surface, disks, mesh: None, mesh_points: None }
     }
 
     /// This goal, with [`Goal::fine_signed_distance`] measuring the exact distance to `mesh`,
     /// the mesh its densities were voxelized from (at the same place: the grid's mesh units).
     pub fn with_mesh(self, mesh: Arc<MeshDistance>) -> Goal {
         Goal { mesh: Some(mesh), ..self }
+    }
+
+    /// This goal, with `points` sampled on the mesh it was voxelized from (mesh units) kept
+    /// where the goal's surface is within [`MESH_AGREEMENT`] voxels of them: where the goal and
+    /// the mesh agree, the detail levels fit the mesh itself (see `fit/levels.rs`), not the
+    /// staircase of its voxelization; faces the voxelization buried or filled are left out.
+    pub fn with_mesh_points(self, points: Vec<DVec3>) -> Goal {
+        let grid = *self.grid();
+        let sub_voxel = self.sub_voxel();
+        let kept = points
+            .into_par_iter()
+            .filter(|&p| sub_voxel.signed_distance(grid.to_grid(p)).abs() <= MESH_AGREEMENT)
+            .collect();
+        Goal { mesh_points: Some(kept), ..self }
+    }
+
+    /// The points of [`Goal::with_mesh_points`], if any.
+    pub fn mesh_points(&self) -> Option<&[DVec3]> {
+        self.mesh_points.as_deref()
     }
 
     /// The mesh's distance query given by [`Goal::with_mesh`], if any.

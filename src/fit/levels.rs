@@ -4,7 +4,9 @@
 //!
 //! ```text
 //! level 0 = the loop of paper 5 on the pyramid's coarsest goal (coarse.rs), to its own target
-//! points  = the goal's surface points on the full grid (one per boundary voxel), goal value 0
+//! points  = points on the mesh where the goal agrees with it (Goal::with_mesh_points), as
+//!           many as the goal has surface points, and the goal's surface points (one per
+//!           boundary voxel) farther than a voxel from them; goal value 0
 //! band    = the voxels whose goal signed distance is between 1.5 and level 0's E + 2 voxels
 //! for k = 1, 2, ... while (max |r| > target or a band voxel has the wrong side)
 //!                   and k <= max_levels and rho_k >= min_radius:
@@ -16,9 +18,10 @@
 //!     g_k     = the Wendland interpolant of r at its centres (a sparse SPD solve)
 //! ```
 //!
-//! The residual is taken at the goal's surface points, where the goal's signed distance is 0
-//! to sub-voxel precision ([`Goal::surface`]): the value there is how far the model's zero set
-//! lies from that point, in voxels, where the model's slope is one (level 0 interpolates signed
+//! The residual is taken at points on the mesh's triangles, or at the goal's surface points,
+//! where the goal's signed distance is 0 to sub-voxel precision ([`Goal::surface`]): the
+//! value there is how far the model's zero set lies from that point, in voxels, where the
+//! model's slope is one (level 0 interpolates signed
 //! distances, so its slope near the surface is close to one). Away from the surface only the
 //! side matters: a band voxel joins the data only where the model has the wrong side, so that
 //! spurious pieces of level 0's surface within the band are removed without asking the model
@@ -75,7 +78,7 @@ impl Default for LevelOptions {
             base_target_error: 2.0,
             first_radius: 4.0,
             min_radius: 1.5,
-            spacing: 0.3,
+            spacing: 0.4,
             hot_fraction: 0.5,
         }
     }
@@ -154,12 +157,14 @@ pub fn applies(goal: &Goal, options: &FitOptions) -> bool {
         && coarse::CoarseStart::of(goal, options).is_some()
 }
 
-/// Bytes per goal surface point a multi-scale fit holds beyond the fit's grids: the point, its
+/// Bytes per goal surface point a multi-scale fit holds beyond the fit's grids: a point on the
+/// mesh (kept by the goal) and its copy, the point, its
 /// residual and error and their copies as candidates, at worst a centre of the finest level
-/// with its sparse row (about pi / spacing^2 neighbours of 12 bytes), index entries and solve
-/// vectors, and the band voxels beside it (index and value, 8 bytes each, at most 2 x 16 of
-/// them, a band being at most `first_radius` voxels of level 0 wide).
-pub const BYTES_PER_POINT: u64 = 900;
+/// with its sparse row (about pi / spacing^2 neighbours of 12 bytes), its support index
+/// entries (about 84 of 4 bytes) and solve vectors, and the band voxels beside it (index and
+/// value, 8 bytes each, at most 2 x 16 of them, a band being at most `first_radius` voxels of
+/// level 0 wide).
+pub const BYTES_PER_POINT: u64 = 1050;
 
 /// Level 0 on the pyramid's coarsest goal, then detail levels on `goal` (see the module doc).
 /// `on_iteration` sees level 0's iterations, their errors in voxels of `goal`'s grid.
@@ -178,7 +183,7 @@ pub fn fit(
     let clock = Instant::now();
     let grid = *goal.grid();
     let voxel = grid.voxel_size;
-    let points: Vec<DVec3> = goal.surface().par_iter().map(|&p| grid.to_world(p)).collect();
+    let points = data_points(goal);
     let mut residual: Vec<f64> = base.values(&points).into_iter().map(|v| -v / voxel).collect();
     let base_e = f64::from(stage.metrics.max_error_subvoxel) * base_grid.1 / voxel;
     let band = (base_e + 2.0).clamp(3.0, options.levels.first_radius * base_grid.1 / voxel);
@@ -249,6 +254,23 @@ pub fn fit(
         super::report_of(&grid, &metrics, stage.best_iteration, stage.termination, log);
     report.levels = Some(levels_report);
     Ok(LevelledFit { shape, report })
+}
+
+/// The points the levels fit, mesh units: the points on the mesh where the goal agrees with it
+/// ([`Goal::mesh_points`]), and the goal's surface points farther than a voxel from all of
+/// them, where the voxelization closed a hole or filled a slit and the goal's surface holds;
+/// without points on the mesh, the goal's surface points.
+fn data_points(goal: &Goal) -> Vec<DVec3> {
+    let grid = goal.grid();
+    let on_goal = goal.surface().par_iter().map(|&p| grid.to_world(p));
+    let Some(on_mesh) = goal.mesh_points() else {
+        return on_goal.collect();
+    };
+    let near_mesh = PointSet::new(grid.voxel_size, on_mesh);
+    let away: Vec<DVec3> = on_goal.filter(|&p| !near_mesh.any_within(p)).collect();
+    let mut points = on_mesh.to_vec();
+    points.extend(away);
+    points
 }
 
 /// Level 0: the loop of paper 5 on the coarsest goal of `goal`'s pyramid, with its own target
@@ -447,6 +469,59 @@ mod tests {
         let mut full = options.clone();
         full.coarse_start = false;
         assert!(!applies(&goal(512), &full));
+    }
+
+    /// A ball of `radius` voxels about `centre`, its densities from 8^3 samples a voxel.
+    fn ball(n: usize, centre: DVec3, radius: f64) -> Goal {
+        let grid = Grid { dims: [n; 3], origin: [0.0; 3], voxel_size: 1.0 };
+        let data = (0..grid.len())
+            .map(|v| {
+                let p = DVec3::from_array(grid.voxel(v).map(|c| c as f64));
+                let inside = (0..512)
+                    .filter(|s| {
+                        let offset =
+                            DVec3::new((s / 64) as f64, (s / 8 % 8) as f64, (s % 8) as f64);
+                        (p + (offset + 0.5) / 8.0 - 0.5).distance(centre) < radius
+                    })
+                    .count();
+                inside as f32 / 512.0
+            })
+            .collect();
+        Goal::from_density(Volume { grid, data }, &Default::default())
+    }
+
+    /// The levels fit points on the mesh where the goal agrees with it (a face buried inside
+    /// the solid is left out) and the goal's surface where no mesh point is near (here, the
+    /// lower half of a ball whose mesh has only its upper half).
+    #[test]
+    fn levels_fit_the_mesh_where_the_goal_agrees_and_the_goal_elsewhere() {
+        let centre = DVec3::splat(12.3);
+        let radius = 8.2;
+        let mut on_mesh: Vec<DVec3> = (0..2000)
+            .map(|i| {
+                let z = i as f64 / 2000.0;
+                let angle = i as f64 * 2.399_963;
+                let ring = (1.0 - z * z).sqrt();
+                centre + DVec3::new(ring * angle.cos(), ring * angle.sin(), z) * radius
+            })
+            .collect();
+        let buried = centre + DVec3::new(0.0, 0.0, -3.0);
+        on_mesh.push(buried);
+        let goal = ball(26, centre, radius).with_mesh_points(on_mesh.clone());
+        let kept = goal.mesh_points().unwrap();
+        assert_eq!(kept.len(), 2000, "the buried point is left out");
+        assert!(!kept.contains(&buried));
+        let points = data_points(&goal);
+        assert_eq!(&points[..2000], kept);
+        let from_goal = &points[2000..];
+        assert!(!from_goal.is_empty());
+        // The goal's points fill the lower half, a voxel or more from the mesh's points.
+        for p in from_goal {
+            assert!(p.z < centre.z + 1.0, "{p}");
+            assert!(kept.iter().all(|q| q.distance(*p) >= 1.0), "{p}");
+        }
+        let lower = goal.surface().iter().filter(|p| p.z < centre.z - 1.0).count();
+        assert!(from_goal.len() >= lower, "{} of {lower}", from_goal.len());
     }
 
     /// Centres go to the largest errors first, a fraction of the radius apart, and only near
