@@ -40,7 +40,9 @@ use serde::Serialize;
 use crate::distance;
 use crate::error::{Error, Result};
 use crate::field::Field;
-use crate::fit::{self, ErrorMeasure, FitOptions, FitReport, Goal, IterationReport, Termination};
+use crate::fit::{
+    self, ErrorMeasure, FitOptions, FitReport, Goal, IterationReport, Termination, Thickness,
+};
 use crate::geometry::{Aabb, DVec3};
 use crate::grid::{Grid, Resolution, Units, Values, Volume};
 use crate::memory::{Estimate, MemoryLimit};
@@ -374,6 +376,9 @@ pub struct Prepared<'a> {
     bounds: Aabb,
     goal: Goal,
     inside: Inside,
+    /// The mesh's exact distance query.
+    query: Arc<MeshDistance>,
+    thickness: Thickness,
     options: MeshFitOptions,
     /// The memory the fit's grids leave for its solves.
     limit: u64,
@@ -386,7 +391,8 @@ pub struct Prepared<'a> {
 ///
 /// # Errors
 /// A file that cannot be written (checked before any work), the mesh's errors, an option out
-/// of range, a refusal of the memory budget, and what the fit's solve reports.
+/// of range, a refusal of the memory budget or of a solid too thin for the grid
+/// ([`Error::Thin`]), and what the fit's solve reports.
 pub fn fit(
     source: MeshSource<'_>,
     options: &MeshFitOptions,
@@ -580,14 +586,16 @@ fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
 
 impl<'a> Prepared<'a> {
     /// Places the grid around `mesh`, checks the fit's memory estimate on it, voxelizes the
-    /// mesh and computes the goal (signed distance, boundary voxels, radii of regularity), to
-    /// which the sub-voxel measure ([`ErrorMeasure::SubVoxel`]) adds the mesh's exact distance
-    /// query ([`Goal::with_mesh`]). `source` names the mesh in errors.
+    /// mesh, measures how thick the solid is ([`Thickness`], with the mesh's exact distance
+    /// query) and computes the goal (signed distance, boundary voxels, radii of regularity), to
+    /// which the sub-voxel measure ([`ErrorMeasure::SubVoxel`]) adds that query
+    /// ([`Goal::with_mesh`]). `source` names the mesh in errors.
     ///
     /// # Errors
     /// An `IMPLICITIZE_ISA` this CPU cannot run ([`Isa::from_env`]), an option out of range, a
-    /// grid that cannot be placed or does not fit in the memory limit, and the errors of
-    /// [`voxelize::voxelize`].
+    /// grid that cannot be placed or does not fit in the memory limit, the errors of
+    /// [`voxelize::voxelize`] and [`MeshDistance::new`], and a solid too thin for the grid
+    /// ([`Error::Thin`], see [`Thickness::refusal`]), refused before its goal is made.
     pub fn new(mesh: &'a Mesh, source: &str, options: &MeshFitOptions) -> Result<Prepared<'a>> {
         Isa::from_env()?;
         options.check()?;
@@ -600,21 +608,43 @@ impl<'a> Prepared<'a> {
                 .map_err(|e| e.in_context(source))?;
         let voxelized =
             voxelize::voxelize(mesh, &grid, &options.voxelize).map_err(|e| e.in_context(source))?;
-        let mut goal = Goal::from_density(voxelized.density, &options.fit.regularity);
+        let sd = distance::signed_distance(&distance::inside(&voxelized.density));
+        let query = Arc::new(MeshDistance::new(mesh).map_err(|e| e.in_context(source))?);
+        let thickness = Thickness::measure(&sd, mesh, &query, options.fit.seed);
+        let longest_axis = grid.dims.into_iter().max().unwrap_or(0);
+        if let Some(refusal) = thickness.refusal(source, longest_axis) {
+            return Err(refusal);
+        }
+        let mut goal = Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
         if options.fit.error_measure == ErrorMeasure::SubVoxel {
-            let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
-            goal = goal.with_mesh(Arc::new(query));
+            goal = goal.with_mesh(query.clone());
         }
         let goal_seconds = clock.elapsed().as_secs_f64();
         let inside = voxelized.inside;
         let options = options.clone();
         let source = source.to_string();
-        Ok(Prepared { mesh, source, bounds, goal, inside, options, limit, goal_seconds })
+        Ok(Prepared {
+            mesh,
+            source,
+            bounds,
+            goal,
+            inside,
+            query,
+            thickness,
+            options,
+            limit,
+            goal_seconds,
+        })
     }
 
     /// How the voxelization decided the mesh's inside.
     pub fn inside(&self) -> Inside {
         self.inside
+    }
+
+    /// How thick the goal's solid is, and whether the grid holds it.
+    pub fn thickness(&self) -> Thickness {
+        self.thickness
     }
 
     /// The grid the mesh was voxelized on.
@@ -651,9 +681,17 @@ impl<'a> Prepared<'a> {
     /// hierarchies (about 260 bytes a triangle of either surface).
     ///
     /// # Errors
-    /// What the fit's solve reports (see [`fit::fit`]), and a mesh whose distance query cannot
-    /// be built (see [`MeshDistance::new`]).
+    /// What the fit's solve reports (see [`fit::fit`]); a goal whose constraints cannot make a
+    /// first model is refused as too thin ([`Error::Thin`], naming the thickness measured).
     pub fn fit(self, on_iteration: impl FnMut(&IterationReport, &Implicit)) -> Result<Fitted> {
+        let longest_axis = self.goal.grid().dims.into_iter().max().unwrap_or(0);
+        let thin = |e: Error| match e {
+            Error::Thin { .. } => Error::Thin {
+                context: self.source.clone(),
+                message: self.thickness.why(longest_axis),
+            },
+            other => other,
+        };
         let mut options = self.options.fit.clone();
         let requested = match self.options.method {
             Method::Iterative => options.constraint_limit(),
@@ -665,11 +703,12 @@ impl<'a> Prepared<'a> {
             Method::Iterative if fit::levels::applies(&self.goal, &options) => {
                 self.levels_estimate().check(self.limit, || None)?;
                 let mut on_iteration = on_iteration;
-                let fitted = fit::levels::fit(&self.goal, &options, &mut on_iteration)?;
+                let fitted =
+                    fit::levels::fit(&self.goal, &options, &mut on_iteration).map_err(thin)?;
                 (fitted.shape, fitted.report)
             }
             Method::Iterative => {
-                let fitted = fit::fit(&self.goal, &options, on_iteration)?;
+                let fitted = fit::fit(&self.goal, &options, on_iteration).map_err(thin)?;
                 (Shape::Rbf(fitted.implicit), fitted.report)
             }
             Method::Naive => {
@@ -685,17 +724,18 @@ impl<'a> Prepared<'a> {
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
         report.winding_near_half = Some(self.inside.winding_near_half);
+        report.thickness = Some(self.thickness);
         let grid = *self.goal.grid();
         let model = Model::from_shape(shape, self.bounds, Some(grid));
         let surface = crate::polygonize::polygonize_field(&model, &grid);
-        let in_context = |e: Error| e.in_context(&self.source);
-        let query = match self.goal.mesh() {
-            Some(query) => query.clone(),
-            None => Arc::new(MeshDistance::new(self.mesh).map_err(in_context)?),
-        };
-        report.mesh_distance =
-            surface_distance::between(self.mesh, &query, &surface, grid.voxel_size, options.seed)
-                .map_err(|e| e.in_context("the model's polygonized surface"))?;
+        report.mesh_distance = surface_distance::between(
+            self.mesh,
+            &self.query,
+            &surface,
+            grid.voxel_size,
+            options.seed,
+        )
+        .map_err(|e| e.in_context("the model's polygonized surface"))?;
         Ok(Fitted { model, report, inside: self.inside, surface })
     }
 

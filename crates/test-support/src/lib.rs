@@ -9,5 +9,6 @@ pub mod hostile;
 pub mod meshes;
 pub mod models;
 pub mod points;
+pub mod shells;
 pub mod topology;
 pub mod wgsl;
