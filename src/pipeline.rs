@@ -53,6 +53,7 @@ use crate::rbf::{Implicit, Isa};
 use crate::sample::Samples;
 use crate::shape::Shape;
 use crate::surface_distance;
+use crate::voxelize::shell::{self, Shell};
 use crate::voxelize::{self, Inside, VoxelizeOptions};
 
 /// How the constraints of a fit are made.
@@ -96,19 +97,26 @@ pub struct MeshFitOptions {
     pub fit: FitOptions,
     /// How the mesh is voxelized.
     pub voxelize: VoxelizeOptions,
+    /// Fit the mesh's surface thickened to this thickness in all, half on each side (see
+    /// [`voxelize::shell`]), instead of the solid its inside makes: for open shells and thin
+    /// walls. `None` (default): the solid. Absent from the serialized options when `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shell: Option<Shell>,
     /// The memory the fit may use.
     #[serde(skip)]
     pub memory_limit: MemoryLimit,
 }
 
 impl MeshFitOptions {
-    /// Checks every setting (see [`FitOptions::check`] and [`VoxelizeOptions::check`]).
+    /// Checks every setting (see [`FitOptions::check`], [`VoxelizeOptions::check`] and
+    /// [`Shell::check`]).
     ///
     /// # Errors
     /// The first setting out of its range, named.
     pub fn check(&self) -> Result<()> {
         self.fit.check()?;
-        self.voxelize.check()
+        self.voxelize.check()?;
+        self.shell.map_or(Ok(()), Shell::check)
     }
 }
 
@@ -580,6 +588,17 @@ pub fn polygonize<F: Field + ?Sized>(
     })
 }
 
+/// `bounds` grown by half of `shell` on every side, for the grid `resolution` places around
+/// them: the thickened surface's bounds.
+///
+/// # Errors
+/// A grid that cannot be placed ([`Grid::around`]).
+fn shell_bounds(bounds: &Aabb, shell: Shell, resolution: Resolution) -> Result<Aabb> {
+    let voxel_size = Grid::around(bounds, resolution)?.voxel_size;
+    let half = DVec3::splat(shell.in_mesh_units(voxel_size) / 2.0);
+    Ok(Aabb { min: bounds.min - half, max: bounds.max + half })
+}
+
 fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
     mesh.bounds().ok_or_else(|| Error::invalid(source, "the mesh has no triangles"))
 }
@@ -599,26 +618,48 @@ impl<'a> Prepared<'a> {
     pub fn new(mesh: &'a Mesh, source: &str, options: &MeshFitOptions) -> Result<Prepared<'a>> {
         Isa::from_env()?;
         options.check()?;
-        let bounds = mesh_bounds(mesh, source)?;
+        let mesh_bounds = mesh_bounds(mesh, source)?;
+        let bounds = match options.shell {
+            Some(shell) => shell_bounds(&mesh_bounds, shell, options.resolution)
+                .map_err(|e| e.in_context(source))?,
+            None => mesh_bounds,
+        };
         let limit = options.memory_limit.bytes();
         let triangles = mesh.triangles.len();
         let clock = Instant::now();
-        let grid =
-            checked_grid(&bounds, options.resolution, limit, |g| Estimate::fit(g.dims, triangles))
-                .map_err(|e| e.in_context(source))?;
+        let grid = checked_grid(&bounds, options.resolution, limit, |g| {
+            let fit = Estimate::fit(g.dims, triangles);
+            if options.shell.is_some() {
+                fit.plus(&Estimate::shell(g.dims, triangles))
+            } else {
+                fit
+            }
+        })
+        .map_err(|e| e.in_context(source))?;
         let voxelized =
             voxelize::voxelize(mesh, &grid, &options.voxelize).map_err(|e| e.in_context(source))?;
         let sd = distance::signed_distance(&distance::inside(&voxelized.density));
         let query = Arc::new(MeshDistance::new(mesh).map_err(|e| e.in_context(source))?);
         let thickness = Thickness::measure(&sd, mesh, &query, options.fit.seed);
         let longest_axis = grid.dims.into_iter().max().unwrap_or(0);
-        if let Some(refusal) = thickness.refusal(source, longest_axis) {
-            return Err(refusal);
-        }
-        let mut goal = Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
-        if options.fit.error_measure == ErrorMeasure::SubVoxel {
-            goal = goal.with_mesh(query.clone());
-        }
+        let goal = match options.shell {
+            Some(shell) => {
+                drop((sd, voxelized.density));
+                let density = shell::densities(&query, &grid, shell.in_mesh_units(grid.voxel_size));
+                Goal::from_density(density, &options.fit.regularity)
+            }
+            None => {
+                if let Some(refusal) = thickness.refusal(source, longest_axis) {
+                    return Err(refusal);
+                }
+                let goal =
+                    Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
+                match options.fit.error_measure {
+                    ErrorMeasure::SubVoxel => goal.with_mesh(query.clone()),
+                    ErrorMeasure::Voxel => goal,
+                }
+            }
+        };
         let goal_seconds = clock.elapsed().as_secs_f64();
         let inside = voxelized.inside;
         let options = options.clone();
@@ -728,14 +769,30 @@ impl<'a> Prepared<'a> {
         let grid = *self.goal.grid();
         let model = Model::from_shape(shape, self.bounds, Some(grid));
         let surface = crate::polygonize::polygonize_field(&model, &grid);
-        report.mesh_distance = surface_distance::between(
-            self.mesh,
-            &self.query,
-            &surface,
-            grid.voxel_size,
-            options.seed,
-        )
+        report.mesh_distance = match self.options.shell {
+            None => surface_distance::between(
+                self.mesh,
+                &self.query,
+                &surface,
+                grid.voxel_size,
+                options.seed,
+            ),
+            Some(_) => {
+                let thickened = crate::polygonize::polygonize(self.goal.density(), 0.5);
+                let query = MeshDistance::new(&thickened)
+                    .map_err(|e| e.in_context("the thickened surface"))?;
+                surface_distance::between(
+                    &thickened,
+                    &query,
+                    &surface,
+                    grid.voxel_size,
+                    options.seed,
+                )
+            }
+        }
         .map_err(|e| e.in_context("the model's polygonized surface"))?;
+        report.shell_voxels =
+            self.options.shell.map(|s| s.in_mesh_units(grid.voxel_size) / grid.voxel_size);
         Ok(Fitted { model, report, inside: self.inside, surface })
     }
 

@@ -5,7 +5,9 @@
 
 use implicitize::error::FrontEnd;
 use implicitize::fit::Thickness;
-use implicitize::pipeline::{self, MeshFitOptions, MeshSource};
+use implicitize::mesh_distance::MeshDistance;
+use implicitize::pipeline::{self, MeshFitOptions, MeshSource, Prepared};
+use implicitize::voxelize::shell::Shell;
 use implicitize::{DVec3, Error, Mesh, Resolution};
 use implicitize_test_support::meshes::sphere;
 use implicitize_test_support::shells::{hollow_ball, open_hemisphere, parallel_sheets};
@@ -102,4 +104,44 @@ fn a_solid_ball_is_measured_thick() {
     assert!((thickness.max_depth - radius).abs() <= 1.0, "{thickness:?} for {radius}");
     assert_eq!(thickness.thin_surface, 0.0);
     assert!(thickness.is_held());
+}
+
+/// The goal of `--shell 2` on an open hemisphere is its surface thickened by a voxel on each
+/// side: every vertex of the goal's densities polygonized at 1/2 is within 0.4 voxel of a
+/// voxel from the hemisphere, by the exact distance (the worst along the rim, where the
+/// thickened surface is a half tube one voxel in radius; 0.35 measured).
+#[test]
+fn a_shell_goal_is_the_thickened_surface() {
+    let hemisphere = open_hemisphere(1.0, 24, 48);
+    let mut options = options();
+    options.shell = Some(Shell::Voxels(2.0));
+    let prepared = Prepared::new(&hemisphere, "hemisphere.obj", &options).unwrap();
+    let h = prepared.grid().voxel_size;
+    let thickened = implicitize::polygonize(prepared.goal().density(), 0.5);
+    assert!(thickened.vertices.len() > 1000, "{} vertices", thickened.vertices.len());
+    let query = MeshDistance::new(&hemisphere).unwrap();
+    let worst = thickened
+        .vertices
+        .iter()
+        .map(|&v| (query.nearest(v).distance / h - 1.0).abs())
+        .fold(0.0, f64::max);
+    assert!(worst <= 0.4, "a vertex {worst} voxels off the thickened surface");
+}
+
+/// A shell fit records its thickness in its report, in voxels whichever unit it was given in,
+/// and in the model file's report; the open hemisphere's own solid is measured beside it.
+#[test]
+fn a_shell_fit_records_its_thickness() {
+    let hemisphere = open_hemisphere(1.0, 24, 48);
+    let mut options = options();
+    options.fit.max_iterations = 2;
+    options.shell = Some(Shell::Mesh(3.0 * voxel()));
+    let fitted = pipeline::fit_mesh(&hemisphere, &options).unwrap();
+    let recorded = fitted.report.shell_voxels.expect("the shell's thickness");
+    let h = fitted.model.grid().unwrap().voxel_size;
+    assert!((recorded - 3.0 * voxel() / h).abs() < 1e-9, "{recorded}");
+    assert!(fitted.report.thickness.is_some() && fitted.report.mesh_distance.is_some());
+    let mut fitted = fitted;
+    fitted.finish();
+    assert!(fitted.model.to_json().contains("\"shell_voxels\""));
 }

@@ -229,6 +229,7 @@ def fit(
     max_iterations: Optional[int] = None,
     subvoxel: bool = False,
     full_resolution: bool = False,
+    shell: Union[float, str, None] = None,
     memory_limit: _Memory = None,
 ) -> Model:
     """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``.
@@ -239,8 +240,10 @@ def fit(
     ``"iterative"`` (paper 5, the default) or ``"naive"`` (paper 3.2); at most
     ``max_constraints`` constraints (default {max_constraints}, {naive_max_constraints} for the
     naive method) and ``max_iterations`` iterations (default {max_iterations}); ``progress``
-    prints one line per iteration on stderr; ``memory_limit`` as in :func:`voxelize`. The GIL
-    is released while fitting.
+    prints one line per iteration on stderr; ``shell`` fits the surface thickened to that
+    thickness in all (a number of voxels, or a string such as ``"0.01u"`` in mesh units), for
+    open shells and walls too thin for the grid; ``memory_limit`` as in :func:`voxelize`. The
+    GIL is released while fitting.
     """
     return _fit(
         _mesh_arg(mesh),
@@ -252,6 +255,7 @@ def fit(
         max_iterations=max_iterations,
         subvoxel=subvoxel,
         full_resolution=full_resolution,
+        shell=shell,
         progress=progress,
         memory_limit=memory_limit,
     )

@@ -77,6 +77,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--subvoxel", action="store_true")
     parser.add_argument("--full-resolution", action="store_true")
     parser.add_argument(
+        "--shell", help="fit the surface thickened to T: voxels (as 2) or mesh units (as 0.01u)"
+    )
+    parser.add_argument(
         "--memory-limit",
         help="bytes, or a size such as 2G (default: the machine's available memory)",
     )
@@ -94,6 +97,7 @@ def _options(args: argparse.Namespace) -> Dict[str, Any]:
         "max_iterations": args.max_iterations,
         "subvoxel": args.subvoxel,
         "full_resolution": args.full_resolution,
+        "shell": args.shell,
         "sdf": args.sdf,
         "samples": args.samples,
         "memory_limit": args.memory_limit,

@@ -18,7 +18,7 @@ use pyo3::types::PyBytes;
 use rayon::prelude::*;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::{self, FitArgs, MemoryArg, MeshArg};
+use crate::inputs::{self, FitArgs, MemoryArg, MeshArg, ShellArg};
 
 /// A mesh as Python gets it: vertices (N, 3) and faces (M, 3).
 type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<u32>>);
@@ -260,7 +260,7 @@ impl FitObserver for Progress {
 #[pyfunction]
 #[pyo3(signature = (mesh, resolution=None, dims=None, target_error=None, seed=None,
                     max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, progress=false, memory_limit=None))]
+                    subvoxel=false, full_resolution=false, shell=None, progress=false, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -274,6 +274,7 @@ pub fn fit(
     max_iterations: Option<i64>,
     subvoxel: bool,
     full_resolution: bool,
+    shell: Option<ShellArg>,
     progress: bool,
     memory_limit: Option<MemoryArg>,
 ) -> PyResult<PyModel> {
@@ -287,6 +288,7 @@ pub fn fit(
         max_iterations,
         subvoxel,
         full_resolution,
+        shell,
         memory_limit,
     }
     .options()?;

@@ -308,6 +308,7 @@ fn report_of(
         mesh_bytes: None,
         winding_near_half: None,
         thickness: None,
+        shell_voxels: None,
         levels: None,
         mesh_distance: None,
     }

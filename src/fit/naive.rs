@@ -54,6 +54,7 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
         mesh_bytes: None,
         winding_near_half: None,
         thickness: None,
+        shell_voxels: None,
         levels: None,
         mesh_distance: None,
     };

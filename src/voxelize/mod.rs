@@ -59,6 +59,7 @@
 
 pub(crate) mod orient;
 mod rays;
+pub mod shell;
 pub(crate) mod winding;
 
 use std::sync::OnceLock;
