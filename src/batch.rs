@@ -147,6 +147,9 @@ pub struct Entry {
     /// The fraction of voxel centres decided by a winding number near 1/2 (see
     /// [`crate::voxelize::Inside`]).
     pub winding_near_half: Option<f64>,
+    /// How thick the goal's solid is (see [`crate::fit::Thickness`]).
+    #[serde(default)]
+    pub thickness: Option<crate::fit::Thickness>,
     /// What made the outputs (for a failure, what was tried, when the input could be read).
     pub origin: Option<Origin>,
     /// Whether this run reused the outputs of an earlier one.
@@ -346,6 +349,7 @@ fn ok_entry(job: &Job, fitted: &Fitted, origin: Origin, seconds: f64) -> Entry {
         watertight: Some(fitted.inside.watertight),
         winding_decided: Some(fitted.inside.winding_decided),
         winding_near_half: Some(fitted.inside.winding_near_half),
+        thickness: fitted.report.thickness,
         origin: Some(origin),
         reused: false,
     }
@@ -364,6 +368,7 @@ pub fn failed_entry(job: &Job, error: String, origin: Option<Origin>, seconds: f
         watertight: None,
         winding_decided: None,
         winding_near_half: None,
+        thickness: None,
         origin,
         reused: false,
     }

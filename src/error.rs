@@ -69,6 +69,16 @@ pub enum Error {
         /// The estimate, the limit and the largest setting that fits.
         message: String,
     },
+    /// A fit refused before its iterations: the solid is thinner than the grid can hold (see
+    /// [`crate::fit::Thickness`]); the message names the thickness measured and what would
+    /// work (a finer `resolution`, or `shell`).
+    #[error("{context}: {message}")]
+    Thin {
+        /// What was being fitted (a file name).
+        context: String,
+        /// The thickness measured and the settings that would work.
+        message: String,
+    },
 }
 
 /// The library's result type.
@@ -103,6 +113,9 @@ impl Error {
             }
             Error::Memory { context: inner, message } if inner != context => {
                 Error::Memory { context: format!("{context}: {inner}"), message }
+            }
+            Error::Thin { context: inner, message } if inner != context => {
+                Error::Thin { context: format!("{context}: {inner}"), message }
             }
             other => other,
         }

@@ -42,7 +42,9 @@ use serde::Serialize;
 use crate::distance;
 use crate::error::{Error, Result};
 use crate::field::Field;
-use crate::fit::{self, ErrorMeasure, FitOptions, FitReport, Goal, IterationReport, Termination};
+use crate::fit::{
+    self, ErrorMeasure, FitOptions, FitReport, Goal, IterationReport, Termination, Thickness,
+};
 use crate::geometry::{Aabb, DVec3};
 use crate::grid::{Grid, Resolution, Units, Values, Volume};
 use crate::memory::{Estimate, MemoryLimit};
@@ -53,6 +55,7 @@ use crate::rbf::{Implicit, Isa};
 use crate::sample::Samples;
 use crate::shape::Shape;
 use crate::surface_distance;
+use crate::voxelize::shell::{self, Shell};
 use crate::voxelize::{self, Inside, VoxelizeOptions};
 
 /// How the constraints of a fit are made.
@@ -96,19 +99,26 @@ pub struct MeshFitOptions {
     pub fit: FitOptions,
     /// How the mesh is voxelized.
     pub voxelize: VoxelizeOptions,
+    /// Fit the mesh's surface thickened to this thickness in all, half on each side (see
+    /// [`voxelize::shell`]), instead of the solid its inside makes: for open shells and thin
+    /// walls. `None` (default): the solid. Absent from the serialized options when `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shell: Option<Shell>,
     /// The memory the fit may use.
     #[serde(skip)]
     pub memory_limit: MemoryLimit,
 }
 
 impl MeshFitOptions {
-    /// Checks every setting (see [`FitOptions::check`] and [`VoxelizeOptions::check`]).
+    /// Checks every setting (see [`FitOptions::check`], [`VoxelizeOptions::check`] and
+    /// [`Shell::check`]).
     ///
     /// # Errors
     /// The first setting out of its range, named.
     pub fn check(&self) -> Result<()> {
         self.fit.check()?;
-        self.voxelize.check()
+        self.voxelize.check()?;
+        self.shell.map_or(Ok(()), Shell::check)
     }
 }
 
@@ -376,6 +386,9 @@ pub struct Prepared<'a> {
     bounds: Aabb,
     goal: Goal,
     inside: Inside,
+    /// The mesh's exact distance query.
+    query: Arc<MeshDistance>,
+    thickness: Thickness,
     options: MeshFitOptions,
     /// The memory the fit's grids leave for its solves.
     limit: u64,
@@ -388,7 +401,8 @@ pub struct Prepared<'a> {
 ///
 /// # Errors
 /// A file that cannot be written (checked before any work), the mesh's errors, an option out
-/// of range, a refusal of the memory budget, and what the fit's solve reports.
+/// of range, a refusal of the memory budget or of a solid too thin for the grid
+/// ([`Error::Thin`]), and what the fit's solve reports.
 pub fn fit(
     source: MeshSource<'_>,
     options: &MeshFitOptions,
@@ -576,54 +590,113 @@ pub fn polygonize<F: Field + ?Sized>(
     })
 }
 
+/// `bounds` grown by half of `shell` on every side, for the grid `resolution` places around
+/// them: the thickened surface's bounds.
+///
+/// # Errors
+/// A grid that cannot be placed ([`Grid::around`]).
+fn shell_bounds(bounds: &Aabb, shell: Shell, resolution: Resolution) -> Result<Aabb> {
+    let voxel_size = Grid::around(bounds, resolution)?.voxel_size;
+    let half = DVec3::splat(shell.in_mesh_units(voxel_size) / 2.0);
+    Ok(Aabb { min: bounds.min - half, max: bounds.max + half })
+}
+
 fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
     mesh.bounds().ok_or_else(|| Error::invalid(source, "the mesh has no triangles"))
 }
 
 impl<'a> Prepared<'a> {
     /// Places the grid around `mesh`, checks the fit's memory estimate on it, voxelizes the
-    /// mesh and computes the goal (signed distance, boundary voxels, radii of regularity), to
+    /// Places the grid around `mesh`, checks the fit's memory estimate on it, voxelizes the
+    /// mesh, measures how thick the solid is ([`Thickness`], with the mesh's exact distance
+    /// query) and computes the goal (signed distance, boundary voxels, radii of regularity), to
     /// which a fit with detail levels adds points on the mesh ([`Goal::with_mesh_points`]) and
-    /// the sub-voxel measure ([`ErrorMeasure::SubVoxel`]) adds the mesh's exact distance
-    /// query ([`Goal::with_mesh`]). `source` names the mesh in errors.
+    /// the sub-voxel measure ([`ErrorMeasure::SubVoxel`]) adds that query
+    /// ([`Goal::with_mesh`]). `source` names the mesh in errors.
     ///
     /// # Errors
     /// An `IMPLICITIZE_ISA` this CPU cannot run ([`Isa::from_env`]), an option out of range, a
-    /// grid that cannot be placed or does not fit in the memory limit, and the errors of
-    /// [`voxelize::voxelize`].
+    /// grid that cannot be placed or does not fit in the memory limit, the errors of
+    /// [`voxelize::voxelize`] and [`MeshDistance::new`], and a solid too thin for the grid
+    /// ([`Error::Thin`], see [`Thickness::refusal`]), refused before its goal is made.
     pub fn new(mesh: &'a Mesh, source: &str, options: &MeshFitOptions) -> Result<Prepared<'a>> {
         Isa::from_env()?;
         options.check()?;
-        let bounds = mesh_bounds(mesh, source)?;
+        let mesh_bounds = mesh_bounds(mesh, source)?;
+        let bounds = match options.shell {
+            Some(shell) => shell_bounds(&mesh_bounds, shell, options.resolution)
+                .map_err(|e| e.in_context(source))?,
+            None => mesh_bounds,
+        };
         let limit = options.memory_limit.bytes();
         let triangles = mesh.triangles.len();
         let clock = Instant::now();
-        let grid =
-            checked_grid(&bounds, options.resolution, limit, |g| Estimate::fit(g.dims, triangles))
-                .map_err(|e| e.in_context(source))?;
+        let grid = checked_grid(&bounds, options.resolution, limit, |g| {
+            let fit = Estimate::fit(g.dims, triangles);
+            if options.shell.is_some() {
+                fit.plus(&Estimate::shell(g.dims, triangles))
+            } else {
+                fit
+            }
+        })
+        .map_err(|e| e.in_context(source))?;
         let voxelized =
             voxelize::voxelize(mesh, &grid, &options.voxelize).map_err(|e| e.in_context(source))?;
-        let mut goal = Goal::from_density(voxelized.density, &options.fit.regularity);
-        if fit::levels::applies(&goal, &options.fit) {
-            let mut rng = ChaCha8Rng::seed_from_u64(options.fit.seed);
-            if let Some(points) = surface_distance::sample(mesh, goal.surface().len(), &mut rng) {
-                goal = goal.with_mesh_points(points);
+        let sd = distance::signed_distance(&distance::inside(&voxelized.density));
+        let query = Arc::new(MeshDistance::new(mesh).map_err(|e| e.in_context(source))?);
+        let thickness = Thickness::measure(&sd, mesh, &query, options.fit.seed);
+        let longest_axis = grid.dims.into_iter().max().unwrap_or(0);
+        let goal = match options.shell {
+            Some(shell) => {
+                drop((sd, voxelized.density));
+                let density = shell::densities(&query, &grid, shell.in_mesh_units(grid.voxel_size));
+                Goal::from_density(density, &options.fit.regularity)
             }
-        }
-        if options.fit.error_measure == ErrorMeasure::SubVoxel {
-            let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
-            goal = goal.with_mesh(Arc::new(query));
-        }
+            None => {
+                if let Some(refusal) = thickness.refusal(source, longest_axis) {
+                    return Err(refusal);
+                }
+                let mut goal =
+                    Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
+                if fit::levels::applies(&goal, &options.fit) {
+                    let mut rng = ChaCha8Rng::seed_from_u64(options.fit.seed);
+                    let n = goal.surface().len();
+                    if let Some(points) = surface_distance::sample(mesh, n, &mut rng) {
+                        goal = goal.with_mesh_points(points);
+                    }
+                }
+                match options.fit.error_measure {
+                    ErrorMeasure::SubVoxel => goal.with_mesh(query.clone()),
+                    ErrorMeasure::Voxel => goal,
+                }
+            }
+        };
         let goal_seconds = clock.elapsed().as_secs_f64();
         let inside = voxelized.inside;
         let options = options.clone();
         let source = source.to_string();
-        Ok(Prepared { mesh, source, bounds, goal, inside, options, limit, goal_seconds })
+        Ok(Prepared {
+            mesh,
+            source,
+            bounds,
+            goal,
+            inside,
+            query,
+            thickness,
+            options,
+            limit,
+            goal_seconds,
+        })
     }
 
     /// How the voxelization decided the mesh's inside.
     pub fn inside(&self) -> Inside {
         self.inside
+    }
+
+    /// How thick the goal's solid is, and whether the grid holds it.
+    pub fn thickness(&self) -> Thickness {
+        self.thickness
     }
 
     /// The grid the mesh was voxelized on.
@@ -660,9 +733,17 @@ impl<'a> Prepared<'a> {
     /// hierarchies (about 260 bytes a triangle of either surface).
     ///
     /// # Errors
-    /// What the fit's solve reports (see [`fit::fit`]), and a mesh whose distance query cannot
-    /// be built (see [`MeshDistance::new`]).
+    /// What the fit's solve reports (see [`fit::fit`]); a goal whose constraints cannot make a
+    /// first model is refused as too thin ([`Error::Thin`], naming the thickness measured).
     pub fn fit(self, on_iteration: impl FnMut(&IterationReport, &Implicit)) -> Result<Fitted> {
+        let longest_axis = self.goal.grid().dims.into_iter().max().unwrap_or(0);
+        let thin = |e: Error| match e {
+            Error::Thin { .. } => Error::Thin {
+                context: self.source.clone(),
+                message: self.thickness.why(longest_axis),
+            },
+            other => other,
+        };
         let mut options = self.options.fit.clone();
         let requested = match self.options.method {
             Method::Iterative => options.constraint_limit(),
@@ -674,11 +755,12 @@ impl<'a> Prepared<'a> {
             Method::Iterative if fit::levels::applies(&self.goal, &options) => {
                 self.levels_estimate().check(self.limit, || None)?;
                 let mut on_iteration = on_iteration;
-                let fitted = fit::levels::fit(&self.goal, &options, &mut on_iteration)?;
+                let fitted =
+                    fit::levels::fit(&self.goal, &options, &mut on_iteration).map_err(thin)?;
                 (fitted.shape, fitted.report)
             }
             Method::Iterative => {
-                let fitted = fit::fit(&self.goal, &options, on_iteration)?;
+                let fitted = fit::fit(&self.goal, &options, on_iteration).map_err(thin)?;
                 (Shape::Rbf(fitted.implicit), fitted.report)
             }
             Method::Naive => {
@@ -694,17 +776,34 @@ impl<'a> Prepared<'a> {
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
         report.winding_near_half = Some(self.inside.winding_near_half);
+        report.thickness = Some(self.thickness);
         let grid = *self.goal.grid();
         let model = Model::from_shape(shape, self.bounds, Some(grid));
         let surface = crate::polygonize::polygonize_field(&model, &grid);
-        let in_context = |e: Error| e.in_context(&self.source);
-        let query = match self.goal.mesh() {
-            Some(query) => query.clone(),
-            None => Arc::new(MeshDistance::new(self.mesh).map_err(in_context)?),
-        };
-        report.mesh_distance =
-            surface_distance::between(self.mesh, &query, &surface, grid.voxel_size, options.seed)
-                .map_err(|e| e.in_context("the model's polygonized surface"))?;
+        report.mesh_distance = match self.options.shell {
+            None => surface_distance::between(
+                self.mesh,
+                &self.query,
+                &surface,
+                grid.voxel_size,
+                options.seed,
+            ),
+            Some(_) => {
+                let thickened = crate::polygonize::polygonize(self.goal.density(), 0.5);
+                let query = MeshDistance::new(&thickened)
+                    .map_err(|e| e.in_context("the thickened surface"))?;
+                surface_distance::between(
+                    &thickened,
+                    &query,
+                    &surface,
+                    grid.voxel_size,
+                    options.seed,
+                )
+            }
+        }
+        .map_err(|e| e.in_context("the model's polygonized surface"))?;
+        report.shell_voxels =
+            self.options.shell.map(|s| s.in_mesh_units(grid.voxel_size) / grid.voxel_size);
         Ok(Fitted { model, report, inside: self.inside, surface })
     }
 

@@ -38,6 +38,7 @@ const PUBLIC_MODULES: &[&str] = &[
     "shape",
     "surface_distance",
     "voxelize",
+    "voxelize::shell",
 ];
 
 /// The `pub mod NAME;` declarations of the module in `file`, whose submodules' files are in

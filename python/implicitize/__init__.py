@@ -230,6 +230,7 @@ def fit(
     subvoxel: bool = False,
     full_resolution: bool = False,
     levels: Optional[int] = None,
+    shell: Union[float, str, None] = None,
     memory_limit: _Memory = None,
 ) -> Model:
     """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``.
@@ -242,6 +243,8 @@ def fit(
     naive method) and ``max_iterations`` iterations (default {max_iterations}); on grids of
     {levels_min_axis} voxels or more, at most ``levels`` detail levels (default {levels}; 0 fits
     one function as the paper does); ``progress`` prints one line per iteration on stderr;
+    ``shell`` fits the surface thickened to that thickness in all (a number of voxels, or a
+    string such as ``"0.01u"`` in mesh units), for open shells and walls too thin for the grid;
     ``memory_limit`` as in :func:`voxelize`. The GIL is released while fitting.
     """
     return _fit(
@@ -255,6 +258,7 @@ def fit(
         subvoxel=subvoxel,
         full_resolution=full_resolution,
         levels=None if levels is None else int(levels),
+        shell=shell,
         progress=progress,
         memory_limit=memory_limit,
     )

@@ -83,6 +83,9 @@ def _parser() -> argparse.ArgumentParser:
         f"(default {defaults['levels']}; 0: none)",
     )
     parser.add_argument(
+        "--shell", help="fit the surface thickened to T: voxels (as 2) or mesh units (as 0.01u)"
+    )
+    parser.add_argument(
         "--memory-limit",
         help="bytes, or a size such as 2G (default: the machine's available memory)",
     )
@@ -101,6 +104,7 @@ def _options(args: argparse.Namespace) -> Dict[str, Any]:
         "subvoxel": args.subvoxel,
         "full_resolution": args.full_resolution,
         "levels": args.levels,
+        "shell": args.shell,
         "sdf": args.sdf,
         "samples": args.samples,
         "memory_limit": args.memory_limit,

@@ -8,7 +8,7 @@ use implicitize::batch::{self, BatchOptions, Entry, Job};
 use pyo3::prelude::*;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::{FitArgs, MemoryArg};
+use crate::inputs::{FitArgs, MemoryArg, ShellArg};
 
 /// The mesh files `inputs` name (files, folders, `@LIST` files), each with the name of its
 /// outputs: `[(input, name), ...]` in order.
@@ -27,7 +27,7 @@ pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
 #[pyfunction]
 #[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=None,
                     seed=None, max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, levels=None, sdf=false,
+                    subvoxel=false, full_resolution=false, levels=None, shell=None, sdf=false,
                     samples=None, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn batch_convert(
@@ -45,6 +45,7 @@ pub fn batch_convert(
     subvoxel: bool,
     full_resolution: bool,
     levels: Option<i64>,
+    shell: Option<ShellArg>,
     sdf: bool,
     samples: Option<i64>,
     memory_limit: Option<MemoryArg>,
@@ -68,6 +69,7 @@ pub fn batch_convert(
         subvoxel,
         full_resolution,
         levels,
+        shell,
         memory_limit,
     }
     .options()?;

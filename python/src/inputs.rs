@@ -211,8 +211,35 @@ pub struct FitArgs {
     pub full_resolution: bool,
     /// At most this many detail levels (0: none).
     pub levels: Option<i64>,
+    /// Fit the surface thickened to this (`shell=`): voxels as a number, mesh units as a
+    /// string with the suffix `u`.
+    pub shell: Option<ShellArg>,
     /// The memory the fit may use.
     pub memory_limit: Option<MemoryArg>,
+}
+
+/// A shell's thickness as Python gives it: a number of voxels, or a string as the command
+/// line's (`"2"`, `"0.01u"`).
+#[derive(FromPyObject)]
+pub enum ShellArg {
+    /// Voxels.
+    Voxels(f64),
+    /// `"2"` or `"0.01u"`.
+    Text(String),
+}
+
+impl ShellArg {
+    /// The library's shell.
+    fn shell(self) -> PyResult<implicitize::voxelize::shell::Shell> {
+        match self {
+            ShellArg::Voxels(t) => {
+                let shell = implicitize::voxelize::shell::Shell::Voxels(t);
+                shell.check().map_err(to_py)?;
+                Ok(shell)
+            }
+            ShellArg::Text(text) => text.parse().map_err(to_py),
+        }
+    }
 }
 
 impl FitArgs {
@@ -245,6 +272,7 @@ impl FitArgs {
             fit.levels.max_levels = usize::try_from(n)
                 .map_err(|_| invalid(format!("levels must be a count of 0 or more, not {n}")))?;
         }
+        options.shell = self.shell.map(ShellArg::shell).transpose()?;
         options.memory_limit = memory_limit(self.memory_limit)?;
         options.check().map_err(to_py)?;
         Ok(options)

@@ -19,7 +19,7 @@ use pyo3::types::PyBytes;
 use rayon::prelude::*;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::{self, FitArgs, MemoryArg, MeshArg};
+use crate::inputs::{self, FitArgs, MemoryArg, MeshArg, ShellArg};
 
 /// A mesh as Python gets it: vertices (N, 3) and faces (M, 3).
 type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<u32>>);
@@ -267,8 +267,8 @@ impl FitObserver for Progress {
 #[pyfunction]
 #[pyo3(signature = (mesh, resolution=None, dims=None, target_error=None, seed=None,
                     max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, levels=None, progress=false,
-                    memory_limit=None))]
+                    subvoxel=false, full_resolution=false, levels=None, shell=None,
+                    progress=false, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -283,6 +283,7 @@ pub fn fit(
     subvoxel: bool,
     full_resolution: bool,
     levels: Option<i64>,
+    shell: Option<ShellArg>,
     progress: bool,
     memory_limit: Option<MemoryArg>,
 ) -> PyResult<PyModel> {
@@ -297,6 +298,7 @@ pub fn fit(
         subvoxel,
         full_resolution,
         levels,
+        shell,
         memory_limit,
     }
     .options()?;

@@ -49,6 +49,16 @@ impl Goal {
     /// The goal of a density volume (from [`crate::voxelize::voxelize`], or an image in 2D).
     pub fn from_density(density: Volume<f32>, regularity: &RegularityOptions) -> Goal {
         let sd = distance::signed_distance(&distance::inside(&density));
+        Goal::from_signed_distance(density, sd, regularity)
+    }
+
+    /// The goal of a density volume whose signed distance `sd` is already known (that of
+    /// [`distance::inside`] of the densities, as [`Goal::from_density`] computes it).
+    pub fn from_signed_distance(
+        density: Volume<f32>,
+        sd: Volume<f32>,
+        regularity: &RegularityOptions,
+    ) -> Goal {
         let boundary = distance::boundary_voxels(&sd);
         let rreg = metrics::radii_of_regularity(&sd, &boundary, regularity);
         let surface: Vec<DVec3> =

@@ -5,6 +5,12 @@
 //! constraint or where the radius of regularity is too small. From each, the signed distance is
 //! followed uphill and downhill to a local extremum, and an interior or exterior constraint is
 //! placed at the end of the longer path, so they fan out instead of bunching in ridges.
+//!
+//! A thin wall has no boundary voxel whose radius of regularity reaches the threshold (its two
+//! faces are a voxel or two apart): where too few do for a first model, the boundary
+//! constraints are drawn from every boundary voxel instead. Constraints that cannot make a first
+//! model (fewer than four, or all on one plane: no voxel inside the goal, or none left of its
+//! wall) are refused ([`crate::Error::Thin`]) before any solve.
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -12,6 +18,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::{FitConstraint, FitOptions};
 use crate::distance;
+use crate::error::{Error, Result};
 use crate::geometry::DVec3;
 use crate::grid::Volume;
 
@@ -19,8 +26,15 @@ use super::goal::Goal;
 
 /// The initial constraints: up to `options.initial_constraints` boundary constraints and one
 /// interior or exterior constraint for each (fewer where two walks end at the same place).
-pub fn initial_constraints(goal: &Goal, options: &FitOptions) -> Vec<FitConstraint> {
-    let boundary = random_boundary_constraints(goal, options);
+///
+/// # Errors
+/// [`Error::Thin`] where they cannot make a first model: fewer than `dim + 1` positions, or all
+/// on one plane (one line in 2D).
+pub fn initial_constraints(goal: &Goal, options: &FitOptions) -> Result<Vec<FitConstraint>> {
+    let mut boundary = random_boundary_constraints(goal, options, options.initial_min_rreg);
+    if boundary.len() < MIN_BOUNDARY {
+        boundary = random_boundary_constraints(goal, options, 0.0);
+    }
     let mut constraints = boundary.clone();
     for c in &boundary {
         let end = longer_extremum_path(&goal.sd, c.position);
@@ -31,11 +45,53 @@ pub fn initial_constraints(goal: &Goal, options: &FitOptions) -> Vec<FitConstrai
             constraints.push(FitConstraint { position: end, value, error: 0.0 });
         }
     }
-    constraints
+    let dim = if goal.grid().is_2d() { 2 } else { 3 };
+    if !spans(constraints.iter().map(|c| c.position), dim) {
+        return Err(Error::Thin {
+            context: "goal".into(),
+            message: format!(
+                "{} boundary voxels give {} constraints, too few or too flat for a first model",
+                goal.boundary.len(),
+                constraints.len()
+            ),
+        });
+    }
+    Ok(constraints)
 }
 
-/// Boundary constraints at random goal boundary voxels, spaced and regular enough.
-fn random_boundary_constraints(goal: &Goal, options: &FitOptions) -> Vec<FitConstraint> {
+/// Below this many boundary constraints regular enough, the initialization takes them from
+/// every boundary voxel.
+const MIN_BOUNDARY: usize = 8;
+
+/// Whether `positions` span `dim` dimensions: `dim + 1` of them affinely independent (their
+/// differences from the first have a component of at least a thousandth of a voxel off the
+/// span of the earlier ones).
+fn spans(positions: impl Iterator<Item = DVec3>, dim: usize) -> bool {
+    let mut positions = positions;
+    let Some(first) = positions.next() else { return false };
+    let mut basis: Vec<DVec3> = Vec::with_capacity(dim);
+    for p in positions {
+        let mut d = p - first;
+        for b in &basis {
+            d -= *b * d.dot(*b);
+        }
+        if d.length() > 1e-3 {
+            basis.push(d.normalize());
+            if basis.len() == dim {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// Boundary constraints at random goal boundary voxels, spaced and with a radius of regularity
+/// of at least `min_rreg`.
+fn random_boundary_constraints(
+    goal: &Goal,
+    options: &FitOptions,
+    min_rreg: f64,
+) -> Vec<FitConstraint> {
     let mut order: Vec<usize> = (0..goal.boundary.len()).collect();
     order.shuffle(&mut ChaCha8Rng::seed_from_u64(options.seed));
     let mut chosen: Vec<FitConstraint> = Vec::with_capacity(options.initial_constraints);
@@ -43,7 +99,7 @@ fn random_boundary_constraints(goal: &Goal, options: &FitOptions) -> Vec<FitCons
         if chosen.len() == options.initial_constraints {
             break;
         }
-        if f64::from(goal.rreg[i]) < options.initial_min_rreg {
+        if f64::from(goal.rreg[i]) < min_rreg {
             continue;
         }
         let position = goal.surface[i];
@@ -130,6 +186,17 @@ mod tests {
         -(outside + inside)
     }
 
+    /// Four corners of a tetrahedron span 3D; the same on one plane, or three, do not.
+    #[test]
+    fn constraints_span_only_off_one_plane() {
+        let tetrahedron = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
+        assert!(spans(tetrahedron.into_iter(), 3));
+        assert!(!spans(tetrahedron[..3].iter().copied(), 3));
+        let flat = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(3.0, 2.0, 0.0)];
+        assert!(!spans(flat.into_iter(), 3));
+        assert!(spans(flat.into_iter(), 2));
+    }
+
     /// Boundary constraints lie on the box's surface, interior ones on its medial axis (where
     /// the nearest face is not unique) at their distance from the surface, exterior ones
     /// outside it at theirs: each value within half a voxel of the exact distance.
@@ -137,7 +204,7 @@ mod tests {
     fn initial_constraints_land_on_the_surface_the_medial_axis_and_outside() {
         let goal = box_goal();
         let options = FitOptions::default();
-        let constraints = initial_constraints(&goal, &options);
+        let constraints = initial_constraints(&goal, &options).unwrap();
         let (mut interior, mut exterior) = (0, 0);
         for c in &constraints {
             let exact = box_distance(c.position);

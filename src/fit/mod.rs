@@ -26,6 +26,7 @@ pub mod naive;
 mod refine;
 mod report;
 mod surface;
+mod thickness;
 
 use std::time::Instant;
 
@@ -42,6 +43,7 @@ use crate::rbf::{self, Implicit, Kernel};
 pub use goal::Goal;
 pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport};
 pub use report::{ConstraintCounts, FitReport, GridLevel, IterationReport, Termination, Timings};
+pub use thickness::Thickness;
 
 /// Every threshold of the fit, with the paper's values as defaults where the paper gives one.
 ///
@@ -305,6 +307,8 @@ fn report_of(
         model_bytes: None,
         mesh_bytes: None,
         winding_near_half: None,
+        thickness: None,
+        shell_voxels: None,
         levels: None,
         mesh_distance: None,
     }
@@ -312,7 +316,9 @@ fn report_of(
 
 /// The fit on `goal`, at grid `level` of the whole fit: the loop from the initial constraints
 /// (5.1), or, on a large grid, from the best constraints of the fit on the goal at half the
-/// resolution (see `coarse.rs`), itself started the same way on a grid large enough.
+/// resolution (see `coarse.rs`), itself started the same way on a grid large enough. A goal
+/// whose wall the coarser grid loses ([`crate::Error::Thin`] from its initialization) starts on
+/// this grid instead.
 fn fit_level(
     goal: &Goal,
     options: &FitOptions,
@@ -327,11 +333,14 @@ fn fit_level(
     let constraints = match coarse {
         Some((coarser, start)) => {
             log.totals.signed_distance += clock.elapsed().as_secs_f64();
-            let stage =
-                fit_level(&start.goal, &start.options(options), coarser, log, on_iteration)?;
-            stage.constraints.iter().map(|c| start.to_full(c, goal)).collect()
+            match fit_level(&start.goal, &start.options(options), coarser, log, on_iteration) {
+                Ok(stage) => stage.constraints.iter().map(|c| start.to_full(c, goal)).collect(),
+                // A wall too thin for the coarser grid starts on this one.
+                Err(crate::Error::Thin { .. }) => init::initial_constraints(goal, options)?,
+                Err(e) => return Err(e),
+            }
         }
-        None => init::initial_constraints(goal, options),
+        None => init::initial_constraints(goal, options)?,
     };
     iterate(goal, constraints, options, level, log, on_iteration)
 }

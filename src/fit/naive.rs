@@ -53,6 +53,8 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
         model_bytes: None,
         mesh_bytes: None,
         winding_near_half: None,
+        thickness: None,
+        shell_voxels: None,
         levels: None,
         mesh_distance: None,
     };

@@ -287,6 +287,14 @@ pub struct FitReport {
     /// is near one half, where the mesh has no trustworthy inside
     /// ([`crate::voxelize::Ambiguity`]); `None` for a goal given as densities.
     pub winding_near_half: Option<f64>,
+    /// How thick the goal's solid is (see [`super::Thickness`]); `None` for a goal given as
+    /// densities.
+    pub thickness: Option<super::Thickness>,
+    /// For a fit of a mesh's surface thickened into a shell (`shell`), its thickness in all,
+    /// in voxels; absent otherwise. Its `mesh_distance` then measures the model against the
+    /// thickened surface (polygonized from the goal's densities).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shell_voxels: Option<f64>,
     /// A multi-scale fit's level 0 and detail levels (see `fit/levels.rs`); absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub levels: Option<super::LevelsReport>,

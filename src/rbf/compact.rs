@@ -338,12 +338,13 @@ impl DetailLevel {
     /// The centres whose support may meet the box `[min, max]` (every one that does, each
     /// once), read from the cells of the support index the box meets.
     pub fn centres_near(&self, min: DVec3, max: DVec3) -> Vec<u32> {
-        let (lo, hi) = (cell_of(min, self.radius), cell_of(max, self.radius));
+        let side = self.index.side;
+        let (lo, hi) = (cell_coordinates(min, side), cell_coordinates(max, side));
         let mut near = Vec::new();
         for x in lo[0]..=hi[0] {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
-                    if let Some(&(start, end)) = self.index.cells.get(&[x, y, z]) {
+                    if let Some(&(start, end)) = self.index.cells.get(&key_of([x, y, z])) {
                         near.extend_from_slice(&self.index.entries[start as usize..end as usize]);
                     }
                 }

@@ -59,6 +59,7 @@
 
 pub(crate) mod orient;
 pub(crate) mod rays;
+pub mod shell;
 pub(crate) mod winding;
 
 use std::sync::OnceLock;
@@ -174,7 +175,8 @@ impl Ambiguity {
             format!(
                 "the mesh is open: the winding number is near one half in {:.1}% of the grid's \
                  voxels, where inside and outside are a guess (holes capped as a soap film \
-                 would); close the mesh for a trustworthy solid",
+                 would); close the mesh for a trustworthy solid, or fit its surface thickened \
+                 into a shell (`fit --shell 2`)",
                 100.0 * self.fraction()
             )
         })

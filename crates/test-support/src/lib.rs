@@ -1,6 +1,7 @@
 //! Helpers shared by the tests, benchmarks and examples of `implicitize` and of its command
 //! (`crates/implicitize-cli`): the repository's data, meshes built from formulas, hostile
-//! meshes, models solved from analytic constraints, mesh topology and WGSL validation.
+//! meshes, thin-walled and open shells, models solved from analytic constraints, mesh topology
+//! and WGSL validation.
 //!
 //! Not published: both crates take it as a dev-dependency by path.
 
@@ -9,5 +10,6 @@ pub mod hostile;
 pub mod meshes;
 pub mod models;
 pub mod points;
+pub mod shells;
 pub mod topology;
 pub mod wgsl;

@@ -52,7 +52,7 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
         anyhow::bail!("--samples 0: give at least one point, or leave --samples out");
     }
     let mut options = BatchOptions::default();
-    options.fit = args.fit.options();
+    options.fit = args.fit.options()?;
     options.sdf = args.sdf;
     options.samples = args.samples;
     let bar = progress_bar(jobs.len() as u64, progress);

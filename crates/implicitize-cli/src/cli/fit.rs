@@ -87,12 +87,21 @@ pub struct FitArgs {
     /// does
     #[arg(long, default_value_t = LevelOptions::default().max_levels)]
     pub levels: usize,
+    /// Fit the mesh's surface thickened to T in all (half on each side) instead of its solid:
+    /// for open shells (car bodies, single-sheet scans) and walls too thin for the grid. T in
+    /// voxels (as 2) or in mesh units with the suffix u (as 0.01u)
+    #[arg(long, value_name = "T")]
+    pub shell: Option<String>,
 }
 
 impl FitArgs {
     /// The library's options for these flags, under the memory limit.
-    pub fn options(&self) -> MeshFitOptions {
+    ///
+    /// # Errors
+    /// A `--shell` that is not a thickness.
+    pub fn options(&self) -> implicitize::Result<MeshFitOptions> {
         let mut options = MeshFitOptions::default();
+        options.shell = self.shell.as_deref().map(str::parse).transpose()?;
         options.resolution = self.grid.resolution();
         options.method = match self.method {
             Method::Iterative => pipeline::Method::Iterative,
@@ -102,7 +111,7 @@ impl FitArgs {
         options.fit.coarse_start = !self.full_resolution;
         options.fit.levels.max_levels = self.levels;
         options.memory_limit = memory_limit();
-        options
+        Ok(options)
     }
 }
 
@@ -231,7 +240,7 @@ fn fit_and_write(
     };
     progress.stage(format!("voxelizing {source}"));
     let mut watch = Watch { progress, source, snapshots_dir: snapshots, snapshots: None };
-    let fitted = pipeline::fit(from, &args.options(), outputs, &mut watch)?;
+    let fitted = pipeline::fit(from, &args.options()?, outputs, &mut watch)?;
     if let Some(snapshots) = watch.snapshots {
         snapshots.finish()?;
     }
