@@ -247,3 +247,25 @@ const BISECTION_STEPS: usize = 42;
 
 /// How far (voxels) from the goal's surface a projected point may end.
 const PROJECTION_TOLERANCE: f64 = 0.1;
+
+#[cfg(test)]
+impl Goal {
+    /// A ball of radius `radius` voxels at `centre`, voxelized by supersampling each voxel
+    /// 8 x 8 x 8 times.
+    pub(crate) fn ball(n: usize, centre: DVec3, radius: f64) -> Goal {
+        let grid = Grid { dims: [n; 3], origin: [0.0; 3], voxel_size: 1.0 };
+        let data = (0..grid.len())
+            .map(|v| {
+                let p = DVec3::from_array(grid.voxel(v).map(|c| c as f64));
+                let mut inside = 0;
+                for s in 0..512 {
+                    let offset = DVec3::new((s / 64) as f64, (s / 8 % 8) as f64, (s % 8) as f64);
+                    let q = p + (offset + 0.5) / 8.0 - 0.5;
+                    inside += usize::from(q.distance(centre) < radius);
+                }
+                inside as f32 / 512.0
+            })
+            .collect();
+        Goal::from_density(Volume { grid, data }, &RegularityOptions::default())
+    }
+}

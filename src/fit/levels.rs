@@ -471,25 +471,6 @@ mod tests {
         assert!(!applies(&goal(512), &full));
     }
 
-    /// A ball of `radius` voxels about `centre`, its densities from 8^3 samples a voxel.
-    fn ball(n: usize, centre: DVec3, radius: f64) -> Goal {
-        let grid = Grid { dims: [n; 3], origin: [0.0; 3], voxel_size: 1.0 };
-        let data = (0..grid.len())
-            .map(|v| {
-                let p = DVec3::from_array(grid.voxel(v).map(|c| c as f64));
-                let inside = (0..512)
-                    .filter(|s| {
-                        let offset =
-                            DVec3::new((s / 64) as f64, (s / 8 % 8) as f64, (s % 8) as f64);
-                        (p + (offset + 0.5) / 8.0 - 0.5).distance(centre) < radius
-                    })
-                    .count();
-                inside as f32 / 512.0
-            })
-            .collect();
-        Goal::from_density(Volume { grid, data }, &Default::default())
-    }
-
     /// The levels fit points on the mesh where the goal agrees with it (a face buried inside
     /// the solid is left out) and the goal's surface where no mesh point is near (here, the
     /// lower half of a ball whose mesh has only its upper half).
@@ -507,7 +488,7 @@ mod tests {
             .collect();
         let buried = centre + DVec3::new(0.0, 0.0, -3.0);
         on_mesh.push(buried);
-        let goal = ball(26, centre, radius).with_mesh_points(on_mesh.clone());
+        let goal = Goal::ball(26, centre, radius).with_mesh_points(on_mesh.clone());
         let kept = goal.mesh_points().unwrap();
         assert_eq!(kept.len(), 2000, "the buried point is left out");
         assert!(!kept.contains(&buried));

@@ -138,27 +138,6 @@ mod tests {
 
     use crate::fit::Goal;
     use crate::geometry::DVec3;
-    use crate::grid::{Grid, Volume};
-    use crate::metrics::RegularityOptions;
-
-    /// A ball of radius `radius` voxels at `centre`, voxelized by supersampling each voxel
-    /// 8 x 8 x 8 times.
-    fn ball(n: usize, centre: DVec3, radius: f64) -> Goal {
-        let grid = Grid { dims: [n; 3], origin: [0.0; 3], voxel_size: 1.0 };
-        let data = (0..grid.len())
-            .map(|v| {
-                let p = DVec3::from_array(grid.voxel(v).map(|c| c as f64));
-                let mut inside = 0;
-                for s in 0..512 {
-                    let offset = DVec3::new((s / 64) as f64, (s / 8 % 8) as f64, (s % 8) as f64);
-                    let q = p + (offset + 0.5) / 8.0 - 0.5;
-                    inside += usize::from(q.distance(centre) < radius);
-                }
-                inside as f32 / 512.0
-            })
-            .collect();
-        Goal::from_density(Volume { grid, data }, &RegularityOptions::default())
-    }
 
     /// Within two voxels of a voxelized ball the distance to the disks is within 0.4 voxels
     /// of the exact one, 0.05 on average (the surface points' own error; measured 0.34 and
@@ -167,7 +146,7 @@ mod tests {
     fn distances_to_a_ball_are_within_the_surface_points_error() {
         let centre = DVec3::splat(20.3);
         let radius = 12.4;
-        let goal = ball(41, centre, radius);
+        let goal = Goal::ball(41, centre, radius);
         let mut rng = ChaCha8Rng::seed_from_u64(1);
         let (mut worst, mut sum) = (0.0f64, 0.0);
         let count = 4000;
