@@ -221,8 +221,8 @@ pub struct SparseSolve {
 }
 
 impl DetailLevel {
-    /// The level of support radius `radius` with these centres and weights; `context` names
-    /// the source in errors.
+    /// The level of support radius `radius` with these centres and weights (kept ordered along
+    /// a Morton curve, each weight with its centre); `context` names the source in errors.
     ///
     /// # Errors
     /// A radius that is not finite and positive, as many weights as centres, or a non-finite
@@ -293,7 +293,8 @@ impl DetailLevel {
         self.radius
     }
 
-    /// The centres, mesh units.
+    /// The centres, mesh units, in the level's own order (along a Morton curve, not
+    /// necessarily the order given to [`DetailLevel::new`]); [`DetailLevel::weights`] follow it.
     pub fn centres(&self) -> &[DVec3] {
         &self.centres
     }
@@ -606,7 +607,7 @@ mod tests {
     #[test]
     fn the_grid_index_lists_every_centre_that_covers_a_point() {
         let centres: Vec<DVec3> = random_points(300, 8).into_iter().map(|p| p * 4.0).collect();
-        let level = DetailLevel::new("test", 0.5, centres.clone(), vec![1.0; 300]).unwrap();
+        let level = DetailLevel::new("test", 0.5, centres, vec![1.0; 300]).unwrap();
         for max_cells in [1_000_000, 200, 1] {
             let index = level.grid_index(max_cells);
             let cells = index.dims.iter().product::<usize>();
@@ -614,7 +615,8 @@ mod tests {
             assert_eq!(index.starts.len(), cells + 1);
             for p in random_points(2000, 9).into_iter().map(|p| p * 5.0 - 0.5) {
                 let listed = index.near(p);
-                for (j, &c) in centres.iter().enumerate() {
+                // The level keeps its centres in its own (Morton) order.
+                for (j, &c) in level.centres().iter().enumerate() {
                     if p.distance(c) < 0.5 {
                         assert!(listed.contains(&(j as u32)), "centre {j} covers {p}");
                     }
