@@ -112,7 +112,7 @@ def test_the_page_draws_what_render_draws(run, models, browser, view):
     score = iou(page, picture)
     print(f"silhouette IoU page vs render at {view}: {score:.4f} ({picture.sum()} pixels)")
     assert picture.sum() > 0.05 * picture.size, "the model fills a fair part of the frame"
-    assert score >= 0.97, f"IoU {score:.4f} at view {view}"
+    assert score >= 0.99, f"IoU {score:.4f} at view {view}"
 
 
 @pytest.mark.parametrize("view", SIX_VIEWS)
@@ -143,7 +143,7 @@ def test_the_mesh_is_drawn_beside_the_model_as_render_compare_draws_them(run, mo
     for half, name in ((slice(0, 800), "mesh"), (slice(800, 1600), "model")):
         score = iou(page[:, half], picture[:, half])
         print(f"silhouette IoU of the {name} half vs render --compare: {score:.4f}")
-        assert score >= 0.97, f"{name}: IoU {score:.4f}"
+        assert score >= 0.99, f"{name}: IoU {score:.4f}"
 
 
 def test_a_drag_turns_the_view_and_reset_brings_it_back(models, browser):
@@ -244,7 +244,7 @@ def test_a_csg_composite_is_drawn_as_render_draws_it(run, models, browser):
     assert iou(picture, alone) < 0.95, "the composite differs from the mesh's model alone"
     score = iou(page, picture)
     print(f"csg: silhouette IoU page vs render: {score:.4f}")
-    assert score >= 0.97
+    assert score >= 0.99
 
 
 @pytest.fixture(scope="module")
