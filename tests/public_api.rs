@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 /// Every public module, by path from the crate root.
 const PUBLIC_MODULES: &[&str] = &[
     "batch",
+    "bound",
     "csg",
     "distance",
     "error",
