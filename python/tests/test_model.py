@@ -181,9 +181,9 @@ def test_a_levelled_model_pickles_saves_and_matches_cli_eval(tmp_path, run, leve
 def test_fit_takes_levels_and_refuses_a_negative_count(triceratops):
     assert implicitize.DEFAULTS["levels"] >= 1
     with pytest.raises(ValueError, match="levels must be a count"):
-        implicitize.fit(triceratops, resolution=24, levels=-1)
+        implicitize.fit(triceratops, resolution=32, levels=-1)
     # Below the grid size where levels apply, `levels` changes nothing.
-    a = implicitize.fit(triceratops, resolution=24, seed=1, levels=0)
-    b = implicitize.fit(triceratops, resolution=24, seed=1)
+    a = implicitize.fit(triceratops, resolution=32, seed=1, levels=0)
+    b = implicitize.fit(triceratops, resolution=32, seed=1)
     corners = np.array(a.bounds)
     assert np.array_equal(a(corners), b(corners)) and "levels" not in a.report
