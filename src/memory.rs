@@ -118,7 +118,7 @@ impl Estimate {
     /// What a shell fit (`shell`) adds to [`Estimate::fit`] on a grid of `dims` voxels, of a
     /// mesh of `triangles` triangles: the exact distances' band flags (two bytes a voxel), and
     /// the thickened surface the report measures the model against, polygonized
-    /// ([`FOLLOW_PER_VOXEL`] a voxel) with its distance hierarchy (taken as the mesh's: the
+    /// (`FOLLOW_PER_VOXEL` a voxel) with its distance hierarchy (taken as the mesh's: the
     /// thickened surface of a thin wall has about as many triangles as its two faces).
     pub fn shell(dims: [usize; 3], triangles: usize) -> Estimate {
         let grid = Estimate::grid(dims, 2 + FOLLOW_PER_VOXEL, 0);

@@ -74,7 +74,7 @@ impl Goal {
     }
 
     /// This goal, with `points` sampled on the mesh it was voxelized from (mesh units) kept
-    /// where the goal's surface is within [`MESH_AGREEMENT`] voxels of them: where the goal and
+    /// where the goal's surface is within `MESH_AGREEMENT` voxels of them: where the goal and
     /// the mesh agree, the detail levels fit the mesh itself (see `fit/levels.rs`), not the
     /// staircase of its voxelization; faces the voxelization buried or filled are left out.
     pub fn with_mesh_points(self, points: Vec<DVec3>) -> Goal {

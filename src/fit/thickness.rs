@@ -19,10 +19,10 @@
 //!   mesh and `t = h - min(d(p + h n), d(p - h n))` (0 for a single sheet).
 //!
 //! The fit refuses ([`Thickness::refusal`]) where more than [`MAX_THIN`] of the surface is thin
-//! on walls under [`MIN_WALL`] voxels: there its constraints have no interior to hold the two faces of a wall apart, and the fit
-//! ends far from its target (hollow balls with walls of 1 and 2 voxels stopped at E 12 and 18
-//! on the default grid). The resolution it names makes the thin walls [`HELD_WALL`] voxels
-//! thick.
+//! on walls under [`MIN_WALL`] voxels: there its constraints have no interior to hold the two
+//! faces of a wall apart, and the fit ends far from its target (hollow balls with walls of 1
+//! and 2 voxels stopped at E 12 and 18 on the default grid). The resolution it names makes the
+//! thin walls [`HELD_WALL`] voxels thick.
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -44,11 +44,11 @@ pub struct Thickness {
     /// The 10th percentile of the inside distance along the medial axis, voxels (half the thin
     /// walls).
     pub low_depth: f64,
-    /// The fraction of the mesh's surface on thin walls (no voxel within [`REACH`] more than
-    /// [`DEEP`] voxels inside) or on walls the grid lost.
+    /// The fraction of the mesh's surface on thin walls (no voxel within `REACH` more than
+    /// `DEEP` voxels inside) or on walls the grid lost.
     pub thin_surface: f64,
     /// The median thickness of those thin walls, voxels (0 for single sheets; at most
-    /// [`PROBE`]); 0 where none is thin.
+    /// `PROBE`); 0 where none is thin.
     pub thin_wall: f64,
 }
 
@@ -83,7 +83,7 @@ const MEDIAL_POINTS: usize = 20_000;
 
 impl Thickness {
     /// Measures the thickness of the solid whose signed distance (voxels, inside positive) is
-    /// `sd` (a goal's, [`Goal::sd`]) against `mesh`, the mesh it was voxelized from, with its
+    /// `sd` (a goal's, `Goal::sd`) against `mesh`, the mesh it was voxelized from, with its
     /// distance query `query`; `seed` draws the surface points.
     pub fn measure(sd: &Volume<f32>, mesh: &Mesh, query: &MeshDistance, seed: u64) -> Thickness {
         let grid = sd.grid;
@@ -104,8 +104,8 @@ impl Thickness {
         Thickness { max_depth, low_depth, thin_surface, thin_wall }
     }
 
-    /// Whether the grid holds the solid: no more than [`MAX_THIN`] of its surface thin, or
-    /// its thin walls at least [`MIN_WALL`] voxels thick.
+    /// Whether the grid holds the solid: no more than `MAX_THIN` of its surface thin, or
+    /// its thin walls at least `MIN_WALL` voxels thick.
     pub fn is_held(&self) -> bool {
         self.thin_surface <= MAX_THIN || self.thin_wall >= MIN_WALL
     }
