@@ -607,7 +607,6 @@ fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
 
 impl<'a> Prepared<'a> {
     /// Places the grid around `mesh`, checks the fit's memory estimate on it, voxelizes the
-    /// Places the grid around `mesh`, checks the fit's memory estimate on it, voxelizes the
     /// mesh, measures how thick the solid is ([`Thickness`], with the mesh's exact distance
     /// query) and computes the goal (signed distance, boundary voxels, radii of regularity), to
     /// which a fit with detail levels adds points on the mesh ([`Goal::with_mesh_points`]) and
@@ -735,7 +734,7 @@ impl<'a> Prepared<'a> {
     /// # Errors
     /// What the fit's solve reports (see [`fit::fit`]); a goal whose constraints cannot make a
     /// first model is refused as too thin ([`Error::Thin`], naming the thickness measured).
-    pub fn fit(self, on_iteration: impl FnMut(&IterationReport, &Implicit)) -> Result<Fitted> {
+    pub fn fit(mut self, on_iteration: impl FnMut(&IterationReport, &Implicit)) -> Result<Fitted> {
         let longest_axis = self.goal.grid().dims.into_iter().max().unwrap_or(0);
         let thin = |e: Error| match e {
             Error::Thin { .. } => Error::Thin {
@@ -744,6 +743,10 @@ impl<'a> Prepared<'a> {
             },
             other => other,
         };
+        // The surface the model is measured against: the mesh, or a shell's thickened surface
+        // polygonized from the goal's densities (which a fit with levels may free).
+        let thickened =
+            self.options.shell.map(|_| crate::polygonize::polygonize(self.goal.density(), 0.5));
         let mut options = self.options.fit.clone();
         let requested = match self.options.method {
             Method::Iterative => options.constraint_limit(),
@@ -756,7 +759,7 @@ impl<'a> Prepared<'a> {
                 self.levels_estimate().check(self.limit, || None)?;
                 let mut on_iteration = on_iteration;
                 let fitted =
-                    fit::levels::fit(&self.goal, &options, &mut on_iteration).map_err(thin)?;
+                    fit::levels::fit(&mut self.goal, &options, &mut on_iteration).map_err(thin)?;
                 (fitted.shape, fitted.report)
             }
             Method::Iterative => {
@@ -778,9 +781,11 @@ impl<'a> Prepared<'a> {
         report.winding_near_half = Some(self.inside.winding_near_half);
         report.thickness = Some(self.thickness);
         let grid = *self.goal.grid();
+        // The goal's volumes are freed before the model is polygonized and measured.
+        drop(self.goal);
         let model = Model::from_shape(shape, self.bounds, Some(grid));
         let surface = crate::polygonize::polygonize_field(&model, &grid);
-        report.mesh_distance = match self.options.shell {
+        report.mesh_distance = match &thickened {
             None => surface_distance::between(
                 self.mesh,
                 &self.query,
@@ -788,12 +793,11 @@ impl<'a> Prepared<'a> {
                 grid.voxel_size,
                 options.seed,
             ),
-            Some(_) => {
-                let thickened = crate::polygonize::polygonize(self.goal.density(), 0.5);
-                let query = MeshDistance::new(&thickened)
+            Some(thickened) => {
+                let query = MeshDistance::new(thickened)
                     .map_err(|e| e.in_context("the thickened surface"))?;
                 surface_distance::between(
-                    &thickened,
+                    thickened,
                     &query,
                     &surface,
                     grid.voxel_size,

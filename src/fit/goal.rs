@@ -108,6 +108,14 @@ impl Goal {
         &self.density
     }
 
+    /// Frees the densities once nothing reads them: the fit with detail levels, whose pyramid
+    /// and level 0 (the densities' readers: [`Goal::sub_voxel`], [`Goal::project_to_surface`]
+    /// and the coarser goals) are done, so that its measure on the full grid does not hold them
+    /// beside the model's volumes. The grid stays; nothing of the densities may be read after.
+    pub(super) fn free_densities(&mut self) {
+        self.density.data = Vec::new();
+    }
+
     /// The goal's signed distance sd_goal (paper 4.2), in voxels, inside positive.
     pub fn sd(&self) -> &Volume<f32> {
         &self.sd

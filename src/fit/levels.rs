@@ -167,12 +167,13 @@ pub fn applies(goal: &Goal, options: &FitOptions) -> bool {
 pub const BYTES_PER_POINT: u64 = 1050;
 
 /// Level 0 on the pyramid's coarsest goal, then detail levels on `goal` (see the module doc).
-/// `on_iteration` sees level 0's iterations, their errors in voxels of `goal`'s grid.
+/// `on_iteration` sees level 0's iterations, their errors in voxels of `goal`'s grid. The goal's
+/// densities are freed once level 0 is fitted ([`Goal::free_densities`]).
 ///
 /// # Errors
 /// What level 0's solves report.
 pub fn fit(
-    goal: &Goal,
+    goal: &mut Goal,
     options: &FitOptions,
     on_iteration: &mut impl FnMut(&IterationReport, &Implicit),
 ) -> Result<LevelledFit> {
@@ -180,6 +181,8 @@ pub fn fit(
     let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
     let (stage, base_grid) = fit_base(goal, options, &mut log, on_iteration)?;
     let base = stage.implicit;
+    goal.free_densities();
+    let goal = &*goal;
     let clock = Instant::now();
     let grid = *goal.grid();
     let voxel = grid.voxel_size;
@@ -229,6 +232,9 @@ pub fn fit(
         levels.push(level);
     }
     log.totals.misc += clock.elapsed().as_secs_f64();
+    // The measure below evaluates the model over the full grid: the levels' data goes first.
+    let data_points = points.len();
+    drop((off, points, residual));
     let shape = if levels.is_empty() {
         Shape::Rbf(base.clone())
     } else {
@@ -247,7 +253,7 @@ pub fn fit(
         base_bytes: base.len() * 16,
         base_max_error_voxels: base_max,
         base_p999_error_voxels: base_p999,
-        points: points.len(),
+        points: data_points,
         levels: reports,
     };
     let mut report =

@@ -618,6 +618,7 @@ fn current_signed_distance(
     if goal.boundary.par_iter().all(|&v| banded.get(v).abs() < reach) {
         banded
     } else {
+        drop(banded);
         distance::signed_distance(&inside)
     }
 }
