@@ -338,11 +338,35 @@ impl FitReport {
             "{:<14} {:<16} {:>15.2} {:>20.2} {:>10.2} {:>9.2}",
             name, volume, t.signed_distance, t.implicit_evaluation, t.misc, t.total
         );
-        let _ = writeln!(
-            s,
-            "stopped: {}; kept iteration {} of {}",
-            self.termination, self.best_iteration, self.iterations
-        );
+        match &self.levels {
+            None => {
+                let _ = writeln!(
+                    s,
+                    "stopped: {}; kept iteration {} of {}",
+                    self.termination, self.best_iteration, self.iterations
+                );
+            }
+            Some(levels) => {
+                let [bx, by, bz] = levels.base_dims;
+                let _ = writeln!(
+                    s,
+                    "level 0 ({bx} x {by} x {bz}, {} centres) stopped: {} of its grid; kept \
+                     iteration {} of {}",
+                    levels.base_centres, self.termination, self.best_iteration, self.iterations
+                );
+                for (k, level) in levels.levels.iter().enumerate() {
+                    let _ = writeln!(
+                        s,
+                        "level {} (radius {:.1} voxels): {} centres, max error at the points \
+                         {:.2} voxels",
+                        k + 1,
+                        level.radius_voxels,
+                        level.centres,
+                        level.max_error_voxels
+                    );
+                }
+            }
+        }
         if let Some(d) = &self.mesh_distance {
             let _ = writeln!(
                 s,

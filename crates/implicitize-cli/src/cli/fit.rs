@@ -187,8 +187,19 @@ pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
 /// The built-in default model, compiled into the binary (see data/README.md).
 const TRICERATOPS_OBJ: &[u8] = include_bytes!("../../../../data/triceratops.obj");
 
+/// The demo's grid: the fit's flags with their defaults, but for these two, which fit the
+/// triceratops with detail levels at 512 so that the demo's picture keeps its brow horns,
+/// toes and the scallops of its frill (about 10 s on 2 cores; see docs/results.md).
+const DEMO_RESOLUTION: &str = "512";
+/// The demo's target E, in voxels of [`DEMO_RESOLUTION`].
+const DEMO_TARGET_ERROR: &str = "1";
+
 /// Arguments of `implicitize demo`.
 #[derive(Debug, Args)]
+#[command(
+    mut_arg("resolution", |a| a.default_value(DEMO_RESOLUTION)),
+    mut_arg("target_error", |a| a.default_value(DEMO_TARGET_ERROR))
+)]
 pub struct DemoCommand {
     /// The folder to write into.
     #[arg(short, long, default_value = "implicitize-demo")]
