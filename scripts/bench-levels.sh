@@ -5,7 +5,8 @@
 # then the exact distance from 100,000 points sampled by area on the mesh to the polygonized
 # model, and back for closed meshes (trimesh samples; `implicitize distance --unsigned`
 # measures), as percentiles in voxels of the R grid. For the first mesh it also times `eval` of
-# 1,000,000 points uniform in the box and `mesh --resolution R` of the model.
+# 1,000,000 points uniform in the box and `mesh --resolution R` of the model. Then, for each
+# mesh, its error against size level by level, from the report.
 #
 # Usage: [RESOLUTION=512] scripts/bench-levels.sh [MESH...]
 #        (default: the bunny, horse and triceratops of ../shared/models)
@@ -19,6 +20,7 @@ fi
 resolution=${RESOLUTION:-512}
 out=target/bench-levels
 mkdir -p "$out"
+rm -f "$out/levels.md"
 python=$(bash ../shared/bench/setup-peers.sh)
 cargo build --release --quiet --bin implicitize
 bin=$PWD/target/release/implicitize
@@ -62,6 +64,24 @@ back = distances(fitted, mesh_path, "back") if goal.is_watertight else "(open me
 print(f"| {name} | {float(wall):.1f} s | {float(user) + float(system):.1f} s "
       f"| {int(kilobytes) / 1e6:.2f} GB | {centres:,} | {centres * 16:,} "
       f"| {report['max_error_voxels']:.2f} | {there} | {back} |")
+
+# Error against size, level by level, printed after the table.
+lv = report.get("levels")
+with open(f"{out}/levels.md", "a") as table:
+    if lv:
+        dims = " x ".join(map(str, lv["base_dims"]))
+        table.write(f"\n{name}: errors at the {lv['points']:,} points the levels fit, voxels\n\n"
+                    "| model | centres | bytes (x 16) | max error | 99.9% | solve | level's time |\n"
+                    "|---|---|---|---|---|---|---|\n"
+                    f"| level 0 ({dims}) | {lv['base_centres']:,} | {lv['base_bytes']:,} "
+                    f"| {lv['base_max_error_voxels']:.2f} | {lv['base_p999_error_voxels']:.2f} | | |\n")
+        for k, level in enumerate(lv["levels"], 1):
+            table.write(f"| + level {k} (radius {level['radius_voxels']:g} voxels) "
+                        f"| {level['centres']:,} | {level['bytes']:,} "
+                        f"| {level['max_error_voxels']:.2f} | {level['p999_error_voxels']:.2f} "
+                        f"| {level['solve_iterations']} CG iterations, residual "
+                        f"{level['solve_residual']:.1e}, {level['wrong_side_voxels']:,} band voxels "
+                        f"| {level['seconds']:.1f} s |\n")
 PY
     if ((first)); then
         first=0
@@ -76,3 +96,4 @@ np.save('$out/eval-points.npy', np.random.default_rng(1).uniform(lo, hi, (1_000_
             "$bin" mesh "$out/$name.json" --resolution "$resolution" -o "$out/$name-mesh.ply" -q
     fi
 done
+cat "$out/levels.md"

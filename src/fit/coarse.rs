@@ -39,10 +39,7 @@ impl CoarseStart {
     /// (a 2D grid, one smaller than `coarse_start_min_axis`, `coarse_start` off, or an iteration
     /// limit of 1).
     pub fn of(goal: &Goal, options: &FitOptions) -> Option<CoarseStart> {
-        let grid = goal.grid();
-        let longest = grid.dims.iter().copied().max().unwrap_or(0);
-        let wanted = options.coarse_start && longest >= options.coarse_start_min_axis;
-        if grid.is_2d() || !wanted || options.max_iterations < 2 {
+        if !CoarseStart::wanted(goal.grid(), options) {
             return None;
         }
         let density = downsample(&goal.density);
@@ -51,6 +48,16 @@ impl CoarseStart {
             coarse = coarse.with_mesh(mesh.clone());
         }
         Some(CoarseStart { goal: coarse })
+    }
+
+    /// Whether a fit on `grid` with `options` has a coarse start ([`CoarseStart::of`] says
+    /// when), known before its goal is made.
+    pub fn wanted(grid: &Grid, options: &FitOptions) -> bool {
+        let longest = grid.dims.iter().copied().max().unwrap_or(0);
+        !grid.is_2d()
+            && options.coarse_start
+            && longest >= options.coarse_start_min_axis
+            && options.max_iterations >= 2
     }
 
     /// The options of the loop at half the resolution: its target is the coarse start's, in

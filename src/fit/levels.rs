@@ -43,6 +43,7 @@ use super::{FitOptions, Goal, Log, coarse};
 use crate::error::Result;
 use crate::field::Field;
 use crate::geometry::DVec3;
+use crate::grid::Grid;
 use crate::levels::MultiScale;
 use crate::rbf::{DetailLevel, Implicit};
 use crate::shape::Shape;
@@ -146,15 +147,14 @@ pub struct LevelledFit {
     pub report: FitReport,
 }
 
-/// Whether a fit on `goal` with `options` has detail levels: levels on, a 3D grid of at least
-/// [`LevelOptions::min_axis`] voxels, and a pyramid below it.
-pub fn applies(goal: &Goal, options: &FitOptions) -> bool {
-    let grid = goal.grid();
+/// Whether an iterative fit on `grid` with `options` has detail levels: levels on, a 3D grid of
+/// at least [`LevelOptions::min_axis`] voxels, and a pyramid below it.
+pub fn applies(grid: &Grid, options: &FitOptions) -> bool {
     let longest = grid.dims.iter().copied().max().unwrap_or(0);
     options.levels.max_levels > 0
         && !grid.is_2d()
         && longest >= options.levels.min_axis
-        && coarse::CoarseStart::of(goal, options).is_some()
+        && coarse::CoarseStart::wanted(grid, options)
 }
 
 /// Bytes per goal surface point a multi-scale fit holds beyond the fit's grids: a point on the
@@ -454,11 +454,9 @@ impl PointSet {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::{Grid, Volume};
 
-    fn goal(longest: usize) -> Goal {
-        let grid = Grid { dims: [longest, 6, 5], origin: [0.0; 3], voxel_size: 1.0 };
-        Goal::from_density(Volume::filled(grid, 0.0f32), &Default::default())
+    fn grid(longest: usize) -> Grid {
+        Grid { dims: [longest, 6, 5], origin: [0.0; 3], voxel_size: 1.0 }
     }
 
     /// The defaults (200 voxels) fit as the paper does; 512 voxels have levels unless they are
@@ -466,15 +464,15 @@ mod tests {
     #[test]
     fn levels_apply_from_the_minimum_axis_and_can_be_turned_off() {
         let options = FitOptions::default();
-        assert!(!applies(&goal(200), &options));
-        assert!(!applies(&goal(383), &options));
-        assert!(applies(&goal(512), &options));
+        assert!(!applies(&grid(200), &options));
+        assert!(!applies(&grid(383), &options));
+        assert!(applies(&grid(512), &options));
         let mut off = options.clone();
         off.levels.max_levels = 0;
-        assert!(!applies(&goal(512), &off));
+        assert!(!applies(&grid(512), &off));
         let mut full = options.clone();
         full.coarse_start = false;
-        assert!(!applies(&goal(512), &full));
+        assert!(!applies(&grid(512), &full));
     }
 
     /// The levels fit points on the mesh where the goal agrees with it (a face buried inside
