@@ -247,6 +247,25 @@ fn too_few_or_flat_constraints_are_errors() {
     assert!(solve_error(2, &[]).contains("0 constraints"));
 }
 
+/// As many constraints as polynomial terms (a tetrahedron in 3D, a triangle in 2D) are
+/// interpolated by the degree-one polynomial alone, with no weight.
+#[test]
+fn as_many_constraints_as_terms_give_their_polynomial() {
+    let corners = [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 3.0, 0.0], [0.0, 0.0, 4.0]];
+    let plane = |p: &[f64; 3]| 1.0 + 0.5 * p[0] - 0.25 * p[1] + 2.0 * p[2];
+    let constraints = corners.map(|p| Constraint::new(&p, plane(&p)));
+    for kernel in [Kernel::ThinPlate, Kernel::Cubic, Kernel::Linear] {
+        let implicit = Implicit::solve(3, kernel, &constraints).unwrap();
+        for p in [[0.5, 0.5, 0.5], [-3.0, 7.0, 1.0], [10.0, -2.0, 5.0]] {
+            let value = implicit.value_at(&p);
+            assert!((value - plane(&p)).abs() < 1e-9, "{kernel:?} at {p:?}: {value}");
+        }
+    }
+    let triangle = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]].map(|p| Constraint::new(&p, -2.0));
+    let implicit = Implicit::solve(2, Kernel::ThinPlate, &triangle).unwrap();
+    assert!((implicit.value_at(&[5.0, -3.0]) + 2.0).abs() < 1e-9);
+}
+
 #[test]
 fn nan_wrong_coordinates_and_bad_dimensions_are_errors() {
     let mut constraints = random_constraints(3, 20, 16, 0.0, 1.0);

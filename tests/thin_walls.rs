@@ -4,6 +4,7 @@
 //! solver.
 
 use implicitize::error::FrontEnd;
+use implicitize::field::Field;
 use implicitize::fit::Thickness;
 use implicitize::mesh_distance::MeshDistance;
 use implicitize::pipeline::{self, MeshFitOptions, MeshSource, Prepared};
@@ -126,6 +127,29 @@ fn a_shell_goal_is_the_thickened_surface() {
         .map(|&v| (query.nearest(v).distance / h - 1.0).abs())
         .fold(0.0, f64::max);
     assert!(worst <= 0.4, "a vertex {worst} voxels off the thickened surface");
+}
+
+/// `--shell 2` on an open hemisphere and on two parallel sheets a voxel apart: detail levels
+/// over a constant level 0 hold the thickened surface within 2 voxels both ways (the report's
+/// exact `mesh_distance` against the thickened surface), and the middle of each wall inside.
+#[test]
+fn shells_fit_within_two_voxels_both_ways() {
+    let hemisphere = open_hemisphere(1.0, 24, 48);
+    let sheets = parallel_sheets(24, voxel());
+    for (mesh, name) in [(&hemisphere, "hemisphere"), (&sheets, "sheets")] {
+        let mut options = options();
+        options.shell = Some(Shell::Voxels(2.0));
+        let fitted = pipeline::fit_mesh(mesh, &options).unwrap();
+        let levels = fitted.report.levels.as_ref().expect("a shell is fitted with levels");
+        assert_eq!(levels.base_centres, 4, "{name}: level 0 is a constant");
+        assert!(!levels.levels.is_empty(), "{name}");
+        let d = fitted.report.mesh_distance.expect("the report measures the model");
+        assert!(d.mesh_to_model.max <= 2.0, "{name}: {:?}", d.mesh_to_model);
+        assert!(d.model_to_mesh.max <= 2.0, "{name}: {:?}", d.model_to_mesh);
+        let inside = fitted.model.values(&mesh.vertices);
+        let outside = inside.iter().filter(|&&v| v <= 0.0).count();
+        assert!(outside * 100 <= mesh.vertices.len(), "{name}: {outside} mid-surface points out");
+    }
 }
 
 /// A shell fit records its thickness in its report, in voxels whichever unit it was given in,

@@ -38,14 +38,14 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::report::{FitReport, GridLevel, IterationReport, Timings};
+use super::report::{FitReport, GridLevel, IterationReport, Termination, Timings};
 use super::{FitOptions, Goal, Log, coarse};
 use crate::error::Result;
 use crate::field::Field;
 use crate::geometry::DVec3;
 use crate::grid::Grid;
 use crate::levels::MultiScale;
-use crate::rbf::{DetailLevel, Implicit};
+use crate::rbf::{self, DetailLevel, Implicit, Kernel};
 use crate::shape::Shape;
 
 /// The settings of detail levels, part of [`FitOptions`].
@@ -138,6 +138,23 @@ pub struct LevelsReport {
     pub levels: Vec<LevelReport>,
 }
 
+impl LevelsReport {
+    /// One line of the report's table a detail level.
+    pub(super) fn write_levels(&self, s: &mut String) {
+        use std::fmt::Write;
+        for (k, level) in self.levels.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "level {} (radius {:.1} voxels): {} centres, max error at the points {:.2} voxels",
+                k + 1,
+                level.radius_voxels,
+                level.centres,
+                level.max_error_voxels
+            );
+        }
+    }
+}
+
 /// A multi-scale fit: its shape (level 0 alone when it met the target) and report.
 #[derive(Debug, Clone)]
 pub struct LevelledFit {
@@ -180,26 +197,137 @@ pub fn fit(
     let started = Instant::now();
     let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
     let (stage, base_grid) = fit_base(goal, options, &mut log, on_iteration)?;
-    let base = stage.implicit;
     goal.free_densities();
-    let goal = &*goal;
+    let voxel = goal.grid().voxel_size;
+    let base_e = f64::from(stage.metrics.max_error_subvoxel) * base_grid.1 / voxel;
+    let first_radius = options.levels.first_radius * base_grid.1;
+    let band = (base_e + 2.0).clamp(3.0, first_radius / voxel);
+    let points = data_points(goal);
+    let targets = vec![0.0; points.len()];
+    let base = Base {
+        implicit: stage.implicit,
+        dims: base_grid.0,
+        best_iteration: stage.best_iteration,
+        termination: stage.termination,
+    };
+    let interior = points.len();
+    let data = Data { points, targets, first_radius, band, interior };
+    add_levels(goal, base, data, options, log, started)
+}
+
+/// A shell's fit ([`crate::voxelize::shell`]): detail levels over a constant level 0. The
+/// paper's loop cannot hold a wall a few voxels thick (no interior constraint fits between its
+/// faces, so its function stays negative there), so level 0 is the constant `-half_voxels`
+/// voxels, outside everywhere, and the levels, the first with a support of `first_radius x
+/// (half_voxels + 1)` voxels, fit the thickened surface's points (goal value 0) and
+/// `mid_surface`, points on the mesh (mesh units) at the middle of the wall, whose goal value
+/// is `half_voxels`, the wall's half thickness; band voxels on the wrong side as for solids.
+///
+/// # Errors
+/// What the levels' solves report.
+pub fn fit_shell(
+    goal: &Goal,
+    mid_surface: &[DVec3],
+    half_voxels: f64,
+    options: &FitOptions,
+) -> Result<LevelledFit> {
+    let started = Instant::now();
+    let log = Log { per_iteration: Vec::new(), totals: Timings::default() };
+    let grid = *goal.grid();
+    let voxel = grid.voxel_size;
+    let implicit = constant(&grid, -half_voxels * voxel)?;
+    let mut points: Vec<DVec3> = goal.surface().par_iter().map(|&p| grid.to_world(p)).collect();
+    let mut targets = vec![0.0; points.len()];
+    let interior = points.len();
+    points.extend_from_slice(mid_surface);
+    targets.resize(points.len(), half_voxels);
+    let first_radius = options.levels.first_radius * (half_voxels + 1.0) * voxel;
+    let base = Base {
+        implicit,
+        dims: grid.dims,
+        best_iteration: 0,
+        termination: Termination::TargetError {
+            target: options.target_error,
+            measure: options.error_measure,
+        },
+    };
+    let data = Data { points, targets, first_radius, band: first_radius / voxel, interior };
+    add_levels(goal, base, data, options, log, started)
+}
+
+/// The constant `value` on `grid`, as a thin-plate function: the interpolant of the same value
+/// at four corners of the grid's box is the constant polynomial, its weights zero.
+fn constant(grid: &Grid, value: f64) -> Result<Implicit> {
+    let lo = grid.to_world(DVec3::ZERO);
+    let size = grid.to_world(DVec3::new(
+        grid.dims[0] as f64 - 1.0,
+        grid.dims[1] as f64 - 1.0,
+        grid.dims[2] as f64 - 1.0,
+    )) - lo;
+    let corners = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z].map(|c| lo + c * size);
+    let constraints: Vec<rbf::Constraint> =
+        corners.iter().map(|c| rbf::Constraint::new(&c.to_array(), value)).collect();
+    Implicit::solve(3, Kernel::default(), &constraints)
+}
+
+/// Level 0 of a multi-scale fit, and how its own fit ended.
+struct Base {
+    implicit: Implicit,
+    /// The grid level 0 was fitted on.
+    dims: [usize; 3],
+    best_iteration: usize,
+    termination: Termination,
+}
+
+/// What the levels fit: `points` (mesh units) whose model value should be `targets` (voxels),
+/// from a first support radius (mesh units); the side of the model is checked at the goal's
+/// voxels between [`SURFACE_BAND`] and `band` voxels from its surface, and at the points from
+/// `interior` on (a shell's mid-surface), which must be inside.
+struct Data {
+    points: Vec<DVec3>,
+    targets: Vec<f64>,
+    first_radius: f64,
+    band: f64,
+    interior: usize,
+}
+
+/// Detail levels over `base`, fitted to `data` and the band's wrong sides, halving the support
+/// until the residual is within the target (see the module doc); then the measure on the full
+/// grid and the report.
+fn add_levels(
+    goal: &Goal,
+    base: Base,
+    data: Data,
+    options: &FitOptions,
+    mut log: Log,
+    started: Instant,
+) -> Result<LevelledFit> {
     let clock = Instant::now();
     let grid = *goal.grid();
     let voxel = grid.voxel_size;
-    let points = data_points(goal);
-    let mut residual: Vec<f64> = base.values(&points).into_iter().map(|v| -v / voxel).collect();
-    let base_e = f64::from(stage.metrics.max_error_subvoxel) * base_grid.1 / voxel;
-    let band = (base_e + 2.0).clamp(3.0, options.levels.first_radius * base_grid.1 / voxel);
-    let mut off = OffSurface::new(goal, &base, band);
+    let Data { points, targets, first_radius, band, interior } = data;
+    let mut residual: Vec<f64> = base
+        .implicit
+        .values(&points)
+        .into_iter()
+        .zip(&targets)
+        .map(|(v, t)| t - v / voxel)
+        .collect();
+    // An interior point is outside while its residual is its whole target or more.
+    let outside = |residual: &[f64]| {
+        residual[interior..].iter().zip(&targets[interior..]).any(|(r, t)| r >= t)
+    };
+    let mut off = OffSurface::new(goal, &base.implicit, band);
     let (base_max, base_p999) = error_figures(&residual);
     let mut levels = Vec::new();
     let mut reports = Vec::new();
     let target = f64::from(options.target_error);
     for k in 0..options.levels.max_levels {
-        let radius = options.levels.first_radius * base_grid.1 / f64::from(1u32 << k.min(30));
+        let radius = first_radius / f64::from(1u32 << k.min(30));
         let wrong = off.wrong_sides();
         let (max, _) = error_figures(&residual);
-        if (max <= target && wrong.is_empty()) || radius < options.levels.min_radius * voxel {
+        let done = max <= target && wrong.is_empty() && !outside(&residual);
+        if done || radius < options.levels.min_radius * voxel {
             break;
         }
         let level_clock = Instant::now();
@@ -234,30 +362,30 @@ pub fn fit(
     log.totals.misc += clock.elapsed().as_secs_f64();
     // The measure below evaluates the model over the full grid: the levels' data goes first.
     let data_points = points.len();
-    drop((off, points, residual));
+    drop((off, points, residual, targets));
+    let base_implicit = base.implicit;
     let shape = if levels.is_empty() {
-        Shape::Rbf(base.clone())
+        Shape::Rbf(base_implicit.clone())
     } else {
-        Shape::Levels(MultiScale::new("the fit", base.clone(), levels)?)
+        Shape::Levels(MultiScale::new("the fit", base_implicit.clone(), levels)?)
     };
     let clock = Instant::now();
     let metrics = super::measure_field(goal, &shape, options);
     log.totals.implicit_evaluation += clock.elapsed().as_secs_f64();
     log.totals.total = started.elapsed().as_secs_f64();
     let levels_report = LevelsReport {
-        base_dims: base_grid.0,
+        base_dims: base.dims,
         band_voxels: band,
         max_error_subvoxel_voxels: metrics.max_error_subvoxel,
         rms_error_subvoxel_voxels: metrics.rms_error_subvoxel,
-        base_centres: base.len(),
-        base_bytes: base.len() * 16,
+        base_centres: base_implicit.len(),
+        base_bytes: base_implicit.len() * 16,
         base_max_error_voxels: base_max,
         base_p999_error_voxels: base_p999,
         points: data_points,
         levels: reports,
     };
-    let mut report =
-        super::report_of(&grid, &metrics, stage.best_iteration, stage.termination, log);
+    let mut report = super::report_of(&grid, &metrics, base.best_iteration, base.termination, log);
     report.levels = Some(levels_report);
     Ok(LevelledFit { shape, report })
 }

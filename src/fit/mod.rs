@@ -288,13 +288,14 @@ fn report_of(
     log: Log,
 ) -> FitReport {
     let Log { per_iteration, totals } = log;
-    let kept = &per_iteration[best_iteration - 1];
+    // A shell's levels have no iterations of the paper's loop below them (no constraints).
+    let kept = best_iteration.checked_sub(1).map(|i| per_iteration[i].constraints);
     FitReport {
         method: "iterative".into(),
         iterations: per_iteration.len(),
         best_iteration,
         termination,
-        constraints: kept.constraints,
+        constraints: kept.unwrap_or_default(),
         max_error_voxels: metrics.max_error,
         max_error: f64::from(metrics.max_error) * grid.voxel_size,
         weighted_error: metrics.weighted_error,

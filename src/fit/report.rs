@@ -346,6 +346,14 @@ impl FitReport {
                     self.termination, self.best_iteration, self.iterations
                 );
             }
+            Some(levels) if self.iterations == 0 => {
+                let _ = writeln!(
+                    s,
+                    "level 0: a constant, outside everywhere (a shell: the levels fit its \
+                     thickened surface from it)"
+                );
+                levels.write_levels(&mut s);
+            }
             Some(levels) => {
                 let [bx, by, bz] = levels.base_dims;
                 let _ = writeln!(
@@ -354,17 +362,7 @@ impl FitReport {
                      iteration {} of {}",
                     levels.base_centres, self.termination, self.best_iteration, self.iterations
                 );
-                for (k, level) in levels.levels.iter().enumerate() {
-                    let _ = writeln!(
-                        s,
-                        "level {} (radius {:.1} voxels): {} centres, max error at the points \
-                         {:.2} voxels",
-                        k + 1,
-                        level.radius_voxels,
-                        level.centres,
-                        level.max_error_voxels
-                    );
-                }
+                levels.write_levels(&mut s);
             }
         }
         if let Some(d) = &self.mesh_distance {

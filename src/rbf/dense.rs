@@ -151,7 +151,8 @@ impl NullSpace {
         }
         let sign = if kernel == Kernel::Linear { -1.0 } else { 1.0 };
         let rest = n - terms;
-        let trailing = &transformed[terms * n + terms..];
+        // With as many constraints as terms (a tetrahedron's corners in 3D) the block is empty.
+        let trailing = transformed.get(terms * n + terms..).unwrap_or_default();
         let mut block =
             faer::MatRef::from_column_major_slice_with_stride(trailing, rest, rest, n).to_owned();
         if sign < 0.0 {
