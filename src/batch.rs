@@ -150,6 +150,9 @@ pub struct Entry {
     /// How thick the goal's solid is (see [`crate::fit::Thickness`]).
     #[serde(default)]
     pub thickness: Option<crate::fit::Thickness>,
+    /// The fit's warnings (see [`crate::pipeline::warnings`]): an open mesh, thin walls.
+    #[serde(default)]
+    pub warnings: Vec<String>,
     /// What made the outputs (for a failure, what was tried, when the input could be read).
     pub origin: Option<Origin>,
     /// Whether this run reused the outputs of an earlier one.
@@ -350,6 +353,7 @@ fn ok_entry(job: &Job, fitted: &Fitted, origin: Origin, seconds: f64) -> Entry {
         winding_decided: Some(fitted.inside.winding_decided),
         winding_near_half: Some(fitted.inside.winding_near_half),
         thickness: fitted.report.thickness,
+        warnings: fitted.warnings(),
         origin: Some(origin),
         reused: false,
     }
@@ -369,6 +373,7 @@ pub fn failed_entry(job: &Job, error: String, origin: Option<Origin>, seconds: f
         winding_decided: None,
         winding_near_half: None,
         thickness: None,
+        warnings: Vec::new(),
         origin,
         reused: false,
     }

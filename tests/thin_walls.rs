@@ -152,6 +152,26 @@ fn shells_fit_within_two_voxels_both_ways() {
     }
 }
 
+/// A solid the grid holds with much of it on thin walls (the triceratops at 48 voxels: legs,
+/// horns and frill about 3 voxels thick) is fitted with a warning naming the walls and a grid
+/// that holds them; a shell of the same mesh is not warned about its walls.
+#[test]
+fn thin_walls_that_are_fitted_are_warned_about() {
+    let (mesh, _) = implicitize::mesh::read(implicitize_test_support::data::triceratops()).unwrap();
+    let mut fast = options();
+    fast.fit.max_iterations = 2;
+    let fitted = pipeline::fit_mesh(&mesh, &fast).unwrap();
+    let warnings = fitted.warnings();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    let warning = &warnings[0];
+    assert!(warning.contains("of the surface is on walls about"), "{warning}");
+    let named = named_resolution(&implicitize::error::worded(warning, FrontEnd::Cli));
+    assert!(named.is_some_and(|n| n > RESOLUTION), "{warning}");
+    let mut shell = fast.clone();
+    shell.shell = Some(Shell::Voxels(2.0));
+    assert!(pipeline::fit_mesh(&mesh, &shell).unwrap().warnings().is_empty());
+}
+
 /// A shell fit records its thickness in its report, in voxels whichever unit it was given in,
 /// and in the model file's report; the open hemisphere's own solid is measured beside it.
 #[test]

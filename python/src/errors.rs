@@ -2,10 +2,11 @@
 //! `OSError`, work refused by the memory budget a `MemoryError`, anything else (a damaged file,
 //! unusable input) a `ValueError`. The message is the library's, its settings named as
 //! Python's keywords (`resolution=812` where the command line says `--resolution 812`).
+//! Warnings are `UserWarning`s, worded the same way.
 
 use implicitize::error::FrontEnd;
-use pyo3::PyErr;
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
+use pyo3::prelude::*;
 
 /// The Python exception for a library error.
 pub fn to_py(error: implicitize::Error) -> PyErr {
@@ -20,4 +21,13 @@ pub fn to_py(error: implicitize::Error) -> PyErr {
 /// A `ValueError` with `message`.
 pub fn invalid(message: impl Into<String>) -> PyErr {
     PyValueError::new_err(message.into())
+}
+
+/// Issues a library warning (see [`implicitize::pipeline::warnings`]) as a Python
+/// `UserWarning`, its settings worded as keywords.
+pub fn warn(py: Python<'_>, warning: &str) -> PyResult<()> {
+    let message = implicitize::error::worded(warning, FrontEnd::Python).replace('\0', " ");
+    let message = std::ffi::CString::new(message).unwrap_or_default();
+    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    PyErr::warn(py, category.as_any(), &message, 1)
 }

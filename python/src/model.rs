@@ -303,14 +303,19 @@ pub fn fit(
     }
     .options()?;
     let input = mesh.into_input()?;
-    py.detach(|| {
+    let (model, warnings) = py.detach(|| {
         let outputs = FitOutputs::default();
         let fitted = pipeline::fit(input.source(), &options, &outputs, &mut Progress(progress))
             .map_err(to_py)?;
         let report = serde_json::to_string(&fitted.report)
             .map_err(|e| invalid(format!("the fit report: {e}")))?;
-        Ok(PyModel { model: fitted.model, report: Some(report) })
-    })
+        let warnings = fitted.warnings();
+        PyResult::Ok((PyModel { model: fitted.model, report: Some(report) }, warnings))
+    })?;
+    for warning in warnings {
+        crate::errors::warn(py, &warning)?;
+    }
+    Ok(model)
 }
 
 /// Reads a model file (from `implicitize fit`, `solve`, `csg` or `Model.save`).

@@ -194,3 +194,10 @@ def test_memory_estimates_are_upper_bounds_of_the_peak(tmp_path, cli, triceratop
         args = ["fit", triceratops, "--resolution", resolution, "-o", model]
     peak, estimate = peak_and_estimate(cli, *args)
     assert peak < estimate, f"{command} at {resolution}: peak {peak:.0f} MB, estimate {estimate:.0f} MB"
+
+
+def test_thin_walls_are_a_userwarning_naming_a_keyword(triceratops):
+    """The triceratops at 48 voxels has a third of its surface on walls about 3 voxels thick:
+    fitted, with the warning `fit` prints, its setting worded as Python's keyword."""
+    with pytest.warns(UserWarning, match=r"walls about .* voxels thick.*resolution=\d+"):
+        implicitize.fit(triceratops, resolution=48, max_iterations=2)

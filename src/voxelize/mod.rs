@@ -176,7 +176,7 @@ impl Ambiguity {
                 "the mesh is open: the winding number is near one half in {:.1}% of the grid's \
                  voxels, where inside and outside are a guess (holes capped as a soap film \
                  would); close the mesh for a trustworthy solid, or fit its surface thickened \
-                 into a shell (`fit --shell 2`)",
+                 into a shell (`shell=2`)",
                 100.0 * self.fraction()
             )
         })

@@ -107,8 +107,15 @@ pub fn write_report(path: &Path, report: &implicitize::fit::FitReport) -> anyhow
 /// winding number near one half: no trustworthy inside there.
 pub fn warn_if_open(source: &str, ambiguity: &implicitize::voxelize::Ambiguity) {
     if let Some(warning) = ambiguity.warning() {
-        eprintln!("warning: {source}: {warning}");
+        warn(source, &warning);
     }
+}
+
+/// Prints a library warning about `source` on stderr (even with --quiet), its settings worded
+/// as flags.
+pub fn warn(source: &str, warning: &str) {
+    let warning = implicitize::error::worded(warning, implicitize::error::FrontEnd::Cli);
+    eprintln!("warning: {source}: {warning}");
 }
 
 /// Reads a mesh and reports what was repaired.

@@ -10,7 +10,7 @@ use implicitize::fit::{
 use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
 use implicitize::{Implicit, mesh, output};
 
-use super::common::{GridArgs, Progress, memory_limit, read_mesh, warn_if_open};
+use super::common::{GridArgs, Progress, memory_limit, read_mesh, warn};
 use super::render::{Snapshots, compare_picture};
 
 /// How the constraints are made.
@@ -148,7 +148,9 @@ struct Watch<'a> {
 
 impl FitObserver for Watch<'_> {
     fn prepared(&mut self, prepared: &Prepared<'_>) {
-        warn_if_open(&self.source, &prepared.inside().ambiguity);
+        for warning in prepared.warnings() {
+            warn(&self.source, &warning);
+        }
         self.snapshots =
             self.snapshots_dir.map(|dir| Snapshots::new(dir, prepared.bounds(), prepared.grid()));
     }
