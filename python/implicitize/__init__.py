@@ -241,11 +241,13 @@ def fit(
     ``"iterative"`` (paper 5, the default) or ``"naive"`` (paper 3.2); at most
     ``max_constraints`` constraints (default {max_constraints}, {naive_max_constraints} for the
     naive method) and ``max_iterations`` iterations (default {max_iterations}); on grids of
-    {levels_min_axis} voxels or more, at most ``levels`` detail levels (default {levels}; 0 fits
-    one function as the paper does); ``progress`` prints one line per iteration on stderr;
+    {levels_min_axis} voxels or more, and for every ``shell``, at most ``levels`` detail levels
+    (default {levels}; 0 fits one function as the paper does); ``progress`` prints one line per
+    iteration on stderr;
     ``shell`` fits the surface thickened to that thickness in all (a number of voxels, or a
     string such as ``"0.01u"`` in mesh units), for open shells and walls too thin for the grid;
-    ``memory_limit`` as in :func:`voxelize`. The GIL is released while fitting.
+    ``memory_limit`` as in :func:`voxelize`. The GIL is released while fitting. An open mesh
+    and thin walls the fit goes ahead with are reported as ``UserWarning``.
     """
     return _fit(
         _mesh_arg(mesh),
