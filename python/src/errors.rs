@@ -24,10 +24,11 @@ pub fn invalid(message: impl Into<String>) -> PyErr {
 }
 
 /// Issues a library warning (see [`implicitize::pipeline::warnings`]) as a Python
-/// `UserWarning`, its settings worded as keywords.
+/// `UserWarning`, its settings worded as keywords, pointing at the line that called the
+/// package's function (two frames up: the package's wrapper calls the extension).
 pub fn warn(py: Python<'_>, warning: &str) -> PyResult<()> {
     let message = implicitize::error::worded(warning, FrontEnd::Python).replace('\0', " ");
     let message = std::ffi::CString::new(message).unwrap_or_default();
     let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
-    PyErr::warn(py, category.as_any(), &message, 1)
+    PyErr::warn(py, category.as_any(), &message, 2)
 }
