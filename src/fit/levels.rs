@@ -185,7 +185,7 @@ pub const BYTES_PER_POINT: u64 = 1050;
 
 /// Level 0 on the pyramid's coarsest goal, then detail levels on `goal` (see the module doc).
 /// `on_iteration` sees level 0's iterations, their errors in voxels of `goal`'s grid. The goal's
-/// densities are freed once level 0 is fitted ([`Goal::free_densities`]).
+/// densities are freed once level 0 is fitted (`Goal::free_densities`).
 ///
 /// # Errors
 /// What level 0's solves report.

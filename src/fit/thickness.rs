@@ -123,7 +123,8 @@ impl Thickness {
     }
 
     /// A warning (one line, no file name, settings backquoted as in errors) for a fit the grid
-    /// holds with more than [`THIN_WARNING`] of its surface on walls under [`MIN_WALL`] voxels,
+    /// holds with more than `THIN_WARNING` (a quarter) of its surface on walls under `MIN_WALL`
+    /// (4.5) voxels,
     /// naming their thickness and what fits them better; or `None`.
     pub fn warning(&self, longest_axis: usize) -> Option<String> {
         let thin = self.thin_surface > THIN_WARNING && self.thin_wall < MIN_WALL;
