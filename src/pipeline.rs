@@ -793,30 +793,30 @@ impl<'a> Prepared<'a> {
         };
         let allowed = self.constraints_within_memory(requested);
         options.max_constraints = Some(allowed);
-        let (shape, mut report) = match self.options.method {
-            Method::Iterative if self.options.shell.is_some() && options.levels.max_levels > 0 => {
+        let (shape, mut report) = match (self.options.method, self.options.shell) {
+            (Method::Iterative, Some(shell)) if options.levels.max_levels > 0 => {
                 self.levels_estimate().check(self.limit, || None)?;
-                let grid = *self.goal.grid();
-                let shell = self.options.shell.unwrap_or(Shell::Voxels(0.0));
-                let half = shell.in_mesh_units(grid.voxel_size) / grid.voxel_size / 2.0;
+                let voxel = self.goal.grid().voxel_size;
+                let half = shell.in_mesh_units(voxel) / voxel / 2.0;
+                // The middle of the wall, about as many points as one of its faces has.
                 let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
                 let n = self.goal.surface().len() / 2;
                 let mid = surface_distance::sample(self.mesh, n, &mut rng).unwrap_or_default();
                 let fitted = fit::levels::fit_shell(&self.goal, &mid, half, &options)?;
                 (fitted.shape, fitted.report)
             }
-            Method::Iterative if fit::levels::applies(self.goal.grid(), &options) => {
+            (Method::Iterative, _) if fit::levels::applies(self.goal.grid(), &options) => {
                 self.levels_estimate().check(self.limit, || None)?;
                 let mut on_iteration = on_iteration;
                 let fitted =
                     fit::levels::fit(&mut self.goal, &options, &mut on_iteration).map_err(thin)?;
                 (fitted.shape, fitted.report)
             }
-            Method::Iterative => {
+            (Method::Iterative, _) => {
                 let fitted = fit::fit(&self.goal, &options, on_iteration).map_err(thin)?;
                 (Shape::Rbf(fitted.implicit), fitted.report)
             }
-            Method::Naive => {
+            (Method::Naive, _) => {
                 let fitted = fit::naive::fit(self.mesh, &self.goal, &options)?;
                 (Shape::Rbf(fitted.implicit), fitted.report)
             }
