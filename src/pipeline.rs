@@ -734,7 +734,7 @@ impl<'a> Prepared<'a> {
 
     /// What a user should know before the fit (see [`warnings`]).
     pub fn warnings(&self) -> Vec<String> {
-        warnings(&self.inside, Some(&self.thickness), self.options.shell, self.grid())
+        warnings(&self.inside, Some(&self.thickness), self.options.shell, self.grid().dims)
     }
 
     /// The grid the mesh was voxelized on.
@@ -882,16 +882,17 @@ impl<'a> Prepared<'a> {
 }
 
 /// Warnings (one line each, no file name, settings backquoted as in errors, see
-/// [`crate::error::worded`]) about a fit on `grid` whose inside was decided as `inside`: a
-/// mesh open enough that its inside is a guess ([`crate::voxelize::Ambiguity::warning`]), and
-/// for a solid (no `shell`), walls the fit may not hold ([`Thickness::warning`]).
+/// [`crate::error::worded`]) about a fit on a grid of `dims` whose inside was decided as
+/// `inside`: a mesh open enough that its inside is a guess
+/// ([`crate::voxelize::Ambiguity::warning`]), and for a solid (no `shell`), walls the fit may
+/// not hold ([`Thickness::warning`]).
 pub fn warnings(
     inside: &Inside,
     thickness: Option<&Thickness>,
     shell: Option<Shell>,
-    grid: &Grid,
+    dims: [usize; 3],
 ) -> Vec<String> {
-    let longest_axis = grid.dims.into_iter().max().unwrap_or(0);
+    let longest_axis = dims.into_iter().max().unwrap_or(0);
     let thin = thickness.filter(|_| shell.is_none()).and_then(|t| t.warning(longest_axis));
     inside.ambiguity.warning().into_iter().chain(thin).collect()
 }
@@ -899,13 +900,8 @@ pub fn warnings(
 impl Fitted {
     /// What a user should know of this fit (see [`warnings`]).
     pub fn warnings(&self) -> Vec<String> {
-        let grid = self.model.grid().copied().unwrap_or(Grid {
-            dims: self.report.dims,
-            origin: self.report.origin,
-            voxel_size: self.report.voxel_size,
-        });
         let shell = self.report.shell_voxels.map(Shell::Voxels);
-        warnings(&self.inside, self.report.thickness.as_ref(), shell, &grid)
+        warnings(&self.inside, self.report.thickness.as_ref(), shell, self.report.dims)
     }
 
     /// Embeds the report in the model as the model file keeps it, and records the file's size
