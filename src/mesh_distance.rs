@@ -2,10 +2,13 @@
 //! triangle it lies on and its barycentric coordinates, and the distance signed by the
 //! voxelizer's inside decision (ray votes, the generalized winding number where they disagree).
 //!
-//! [`MeshDistance`] holds a bounding volume hierarchy over the triangles: f64 boxes, each node
-//! split at the median of its triangles' centroids along their longest axis, leaves of at most
-//! [`LEAF`] triangles. It is built without recursion, and median splits keep it balanced, so a
-//! mesh of millions of triangles neither overflows a stack nor makes a deep tree.
+//! [`MeshDistance`] holds a bounding volume hierarchy over the triangles, leaves of at most
+//! [`LEAF`] triangles: each node split across the longest axis of its triangles' centroids
+//! where the surface area heuristic finds it cheapest (the children's box areas weighted by
+//! their triangles, over [`BINS`] bins), which makes tighter boxes than the median and so
+//! fewer nodes and triangles a query must open. It is built without recursion, and no split
+//! leaves less than a quarter of a node's triangles on one side, so a mesh of millions of
+//! triangles neither overflows a stack nor makes a deep tree.
 //!
 //! # What it guarantees
 //! * **Exact:** [`MeshDistance::nearest`] visits every node whose box could hold a closer point
@@ -67,14 +70,14 @@ pub const LEAF: usize = 4;
 
 /// Bytes per triangle of a mesh that building a [`MeshDistance`] needs at its peak: the
 /// triangles' corners twice (as read from the mesh and in the hierarchy's order), their
-/// centroids and indices while sorting, which way each faces, and the nodes, fewer than
+/// centroids and indices while sorting, which way each faces, which are slivers, and the nodes, fewer than
 /// `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles each). Not counted: what
 /// the first sign ([`MeshDistance::inside`]) builds: the re-orientation and its tables (those
 /// of reading a mesh, [`crate::memory`]), the lines' hierarchies and the winding number's tree.
 pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
     + size_of::<(DVec3, u32)>()
     + size_of::<u32>()
-    + size_of::<bool>()
+    + 2 * size_of::<bool>()
     + size_of::<Node>() * 4 / LEAF;
 
 /// The closest point of a mesh's surface to a query point.
@@ -141,6 +144,8 @@ pub struct MeshDistance {
     triangles: Vec<[DVec3; 3]>,
     /// The index in the mesh of each of `triangles`.
     indices: Vec<u32>,
+    /// Whether each of `triangles` is a sliver (see [`closest_on_triangle`]).
+    slivers: Vec<bool>,
     /// The mean of the mesh's vertices, about which the re-orientation measures its volume.
     centre: DVec3,
     /// Whether each of `triangles` faces against the orientation the voxelizer gives the mesh
@@ -195,9 +200,10 @@ impl MeshDistance {
     /// `centre`: the mean of the mesh's vertices.
     fn build(triangles: Vec<[DVec3; 3]>, centre: DVec3) -> MeshDistance {
         let centroid = |&[a, b, c]: &[DVec3; 3]| (a + b + c) / 3.0;
-        let (nodes, indices) = hierarchy(&triangles, centroid, LEAF);
-        let triangles = indices.iter().map(|&t| triangles[t as usize]).collect();
-        MeshDistance { nodes, triangles, indices, centre, flipped: OnceLock::new() }
+        let (nodes, indices) = hierarchy(&triangles, centroid, area, LEAF);
+        let triangles: Vec<_> = indices.iter().map(|&t| triangles[t as usize]).collect();
+        let slivers = triangles.iter().map(is_sliver).collect();
+        MeshDistance { nodes, triangles, indices, slivers, centre, flipped: OnceLock::new() }
     }
 
     /// Which triangles (in the hierarchy's order) the voxelizer's re-orientation flips,
@@ -259,8 +265,14 @@ impl MeshDistance {
     /// start for [`MeshDistance::search`].
     #[inline]
     fn seed(&self, p: DVec3, t: usize) -> (f64, usize) {
-        let (point, _) = closest_on_triangle(p, &self.triangles[t]);
-        (p.distance_squared(point), t)
+        (p.distance_squared(self.closest(p, t).0), t)
+    }
+
+    /// The closest point of triangle `t` (in the hierarchy's order) to `p` and its barycentric
+    /// coordinates.
+    #[inline]
+    fn closest(&self, p: DVec3, t: usize) -> (DVec3, [f64; 3]) {
+        closest_on(p, &self.triangles[t], self.slivers[t])
     }
 
     /// The nearest triangle to `p` (in the hierarchy's order) and its squared distance, or
@@ -269,10 +281,9 @@ impl MeshDistance {
     /// (the answer is then exact whatever the triangle) or a bound with no triangle
     /// (`usize::MAX`), returned as it is when nothing is nearer.
     fn search(&self, p: DVec3, mut best: (f64, usize)) -> (f64, usize) {
-        // Median splits keep the depth below log2 of the triangles, which are fewer than 2^31;
-        // each level leaves at most one node on the stack. Each entry keeps its node's squared
+        // Each level leaves at most one node on the stack (see `DEPTH`). Each entry keeps its node's squared
         // distance, computed once when it was pushed.
-        let mut stack = [(0u32, 0.0f64); 64];
+        let mut stack = [(0u32, 0.0f64); DEPTH];
         let mut top = 1;
         while top > 0 {
             top -= 1;
@@ -285,8 +296,11 @@ impl MeshDistance {
             let first = node.first as usize;
             if node.count > 0 {
                 for t in first..first + node.count as usize {
-                    let (point, _) = closest_on_triangle(p, &self.triangles[t]);
-                    let d2 = p.distance_squared(point);
+                    // The triangle's own box first: a cheaper lower bound than its distance.
+                    if corner_box_distance_squared(p, &self.triangles[t]) >= best.0 {
+                        continue;
+                    }
+                    let d2 = p.distance_squared(self.closest(p, t).0);
                     if d2 < best.0 {
                         best = (d2, t);
                     }
@@ -311,7 +325,7 @@ impl MeshDistance {
     /// Calls `found` with every triangle (in the hierarchy's order) whose squared distance to
     /// `p` is at most `radius2`, that squared distance and its closest point to `p`.
     fn within(&self, p: DVec3, radius2: f64, mut found: impl FnMut(usize, f64, DVec3)) {
-        let mut stack = [0u32; 64];
+        let mut stack = [0u32; DEPTH];
         let mut top = 1;
         while top > 0 {
             top -= 1;
@@ -322,7 +336,7 @@ impl MeshDistance {
             let first = node.first as usize;
             if node.count > 0 {
                 for t in first..first + node.count as usize {
-                    let (point, _) = closest_on_triangle(p, &self.triangles[t]);
+                    let (point, _) = self.closest(p, t);
                     let d2 = p.distance_squared(point);
                     if d2 <= radius2 {
                         found(t, d2, point);
@@ -338,7 +352,7 @@ impl MeshDistance {
 
     /// What [`MeshDistance::search`] found for `p`, in the mesh's terms.
     fn answer(&self, p: DVec3, (d2, t): (f64, usize)) -> Nearest {
-        let (point, barycentric) = closest_on_triangle(p, &self.triangles[t]);
+        let (point, barycentric) = self.closest(p, t);
         Nearest { distance: d2.sqrt(), point, triangle: self.indices[t] as usize, barycentric }
     }
 
@@ -393,13 +407,33 @@ impl MeshDistance {
     }
 }
 
-/// A bounding volume hierarchy over `triangles` (at least one), built breadth-first from a
-/// work list: each node split at the median of its triangles' `key` points along their longest
-/// axis, leaves of at most `leaf` triangles. The nodes, and the triangles' indices in the
-/// hierarchy's order (a leaf's `first` and `count` are a range of it).
+/// Bins along an axis over which [`hierarchy`] weighs its splits.
+pub const BINS: usize = 16;
+
+/// The fewest triangles a split leaves on either side, as a fraction of its node's: with fewer
+/// than 2^31 triangles, a hierarchy is at most log(2^31) / log(4/3) < 75 levels deep.
+const SIDE: f64 = 0.25;
+
+/// The stack of a descent through a hierarchy: a descent leaves at most one node on the stack
+/// per level, and a hierarchy has fewer levels (see [`SIDE`]).
+const DEPTH: usize = 128;
+
+/// Half the surface area of a box of sides `extent`: the measure of the surface area heuristic.
+fn area(extent: DVec3) -> f64 {
+    extent.x * extent.y + extent.y * extent.z + extent.z * extent.x
+}
+
+/// A bounding volume hierarchy over `triangles` (at least one), built from a work list: each
+/// node split across the longest axis of its triangles' `key` points, at the boundary between
+/// [`BINS`] equal bins of that axis where the children's boxes' `measure` (of their sides)
+/// times their triangles sums least (the surface area heuristic), among the boundaries that
+/// leave at least [`SIDE`] of the triangles on each side, or else at the median; leaves of at most `leaf` triangles. The nodes, and
+/// the triangles' indices in the hierarchy's order (a leaf's `first` and `count` are a range
+/// of it).
 fn hierarchy(
     triangles: &[[DVec3; 3]],
     key: impl Fn(&[DVec3; 3]) -> DVec3,
+    measure: impl Fn(DVec3) -> f64,
     leaf: usize,
 ) -> (Vec<Node>, Vec<u32>) {
     let mut order: Vec<(DVec3, u32)> = triangles.iter().map(key).zip(0..).collect();
@@ -412,9 +446,8 @@ fn hierarchy(
         let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         let (mut low, mut high) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for &(centroid, t) in part.iter() {
-            for &p in &triangles[t as usize] {
-                (min, max) = (min.min(p), max.max(p));
-            }
+            let (a, b) = corner_box(&triangles[t as usize]);
+            (min, max) = (min.min(a), max.max(b));
             (low, high) = (low.min(centroid), high.max(centroid));
         }
         let node = &mut nodes[n];
@@ -424,10 +457,14 @@ fn hierarchy(
             continue;
         }
         let axis = (high - low).max_position();
-        let middle = part.len() / 2;
-        part.select_nth_unstable_by(middle, |a, b| {
-            a.0[axis].total_cmp(&b.0[axis]).then(a.1.cmp(&b.1))
-        });
+        let middle = Bins::split(part, triangles, axis, (low[axis], high[axis]), &measure)
+            .unwrap_or_else(|| {
+                let middle = part.len() / 2;
+                part.select_nth_unstable_by(middle, |a, b| {
+                    a.0[axis].total_cmp(&b.0[axis]).then(a.1.cmp(&b.1))
+                });
+                middle
+            });
         let child = nodes.len();
         (nodes[n].first, nodes[n].count) = (child as u32, 0);
         let blank = Node::new(min, max);
@@ -438,11 +475,98 @@ fn hierarchy(
     (nodes, order.iter().map(|&(_, t)| t).collect())
 }
 
+/// The bins of [`hierarchy`]'s split: each one's box and number of triangles.
+struct Bins {
+    boxes: [(DVec3, DVec3, usize); BINS],
+}
+
+impl Bins {
+    /// Splits `part` (key points and triangles) across `axis`, whose key points span `range`,
+    /// at the cheapest boundary between bins: the triangles of the bins below it first. The
+    /// number below, or `None` (`part` untouched) when no boundary leaves enough on each side.
+    fn split(
+        part: &mut [(DVec3, u32)],
+        triangles: &[[DVec3; 3]],
+        axis: usize,
+        (low, high): (f64, f64),
+        measure: impl Fn(DVec3) -> f64,
+    ) -> Option<usize> {
+        let width = high - low;
+        // Also none for a NaN width.
+        if width.partial_cmp(&0.0) != Some(Ordering::Greater) {
+            return None;
+        }
+        let bin = |key: DVec3| (((key[axis] - low) / width * BINS as f64) as usize).min(BINS - 1);
+        let mut bins = Bins { boxes: [(DVec3::INFINITY, DVec3::NEG_INFINITY, 0); BINS] };
+        for &(key, t) in part.iter() {
+            let (a, b) = corner_box(&triangles[t as usize]);
+            let slot = &mut bins.boxes[bin(key)];
+            *slot = (slot.0.min(a), slot.1.max(b), slot.2 + 1);
+        }
+        let boundary = bins.cheapest(measure)?;
+        let mut below = 0;
+        for i in 0..part.len() {
+            if bin(part[i].0) < boundary {
+                part.swap(i, below);
+                below += 1;
+            }
+        }
+        Some(below)
+    }
+
+    /// The boundary (1 to `BINS - 1`, the first bin above it) whose two sides' measures
+    /// times their triangles sum least, among those with at least [`SIDE`] of the triangles on
+    /// each side.
+    fn cheapest(&self, measure: impl Fn(DVec3) -> f64) -> Option<usize> {
+        let total: usize = self.boxes.iter().map(|b| b.2).sum();
+        let fewest = ((SIDE * total as f64).ceil() as usize).max(1);
+        let grow = |acc: (DVec3, DVec3, usize), b: &(DVec3, DVec3, usize)| {
+            (acc.0.min(b.0), acc.1.max(b.1), acc.2 + b.2)
+        };
+        let cost = |(a, b, n): (DVec3, DVec3, usize)| measure(b - a) * n as f64;
+        let empty = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0);
+        let mut above = [0.0; BINS];
+        let mut counts = [0; BINS];
+        let mut acc = empty;
+        for i in (1..BINS).rev() {
+            acc = grow(acc, &self.boxes[i]);
+            (above[i], counts[i]) = (cost(acc), acc.2);
+        }
+        let mut acc = empty;
+        let mut best: Option<(f64, usize)> = None;
+        for i in 1..BINS {
+            acc = grow(acc, &self.boxes[i - 1]);
+            if acc.2 < fewest || counts[i] < fewest {
+                continue;
+            }
+            let total = cost(acc) + above[i];
+            if best.is_none_or(|(least, _)| total < least) {
+                best = Some((total, i));
+            }
+        }
+        best.map(|(_, boundary)| boundary)
+    }
+}
+
+/// The box of a triangle's corners.
+fn corner_box([a, b, c]: &[DVec3; 3]) -> (DVec3, DVec3) {
+    (a.min(*b).min(*c), a.max(*b).max(*c))
+}
+
+/// The squared distance from `p` to the box of a triangle's corners: a lower bound of its
+/// squared distance to the triangle.
+#[inline]
+fn corner_box_distance_squared(p: DVec3, corners: &[DVec3; 3]) -> f64 {
+    let (min, max) = corner_box(corners);
+    (min - p).max(p - max).max(DVec3::ZERO).length_squared()
+}
+
 /// Most triangles in a leaf of a [`Lines`] hierarchy.
 const LINE_LEAF: usize = 8;
 
 /// A hierarchy over the triangles for the lines along each axis: split only across the axis
-/// (at the median of the triangles' centroids projected along it), so that the boxes a line
+/// (the triangles' centroids projected along it, the heuristic weighing the boxes' areas
+/// across it, which a line's chance of passing through a box is), so that the boxes a line
 /// passes through are few, as for a two-dimensional hierarchy of the projected triangles.
 /// Each keeps its own copy of the triangles, re-oriented, in its order, so that a leaf's
 /// triangles are read from one place.
@@ -459,7 +583,9 @@ impl Lines {
                 centroid[axis] = 0.0;
                 centroid
             };
-            let (nodes, order) = hierarchy(&query.triangles, key, LINE_LEAF);
+            let (u, v) = plane_axes(axis);
+            let across = move |extent: DVec3| extent[u] * extent[v];
+            let (nodes, order) = hierarchy(&query.triangles, key, across, LINE_LEAF);
             (nodes, order.iter().map(|&t| query.oriented(t as usize)).collect())
         };
         let (x, (y, z)) = rayon::join(|| across(0), || rayon::join(|| across(1), || across(2)));
@@ -488,7 +614,7 @@ impl Lines {
             within(u, q[0]) && within(v, q[1])
         };
         let mut tally = Tally::default();
-        let mut stack = [0u32; 64];
+        let mut stack = [0u32; DEPTH];
         let mut top = 1;
         while top > 0 {
             top -= 1;
@@ -596,10 +722,24 @@ pub fn signed(distance: f64, inside: bool) -> f64 {
 /// collinear or repeated corners) can fool the region test, whose answer is on the triangle
 /// but perhaps not the closest: it is measured as its three edges too, and the nearer kept.
 fn closest_on_triangle(p: DVec3, corners: &[DVec3; 3]) -> (DVec3, [f64; 3]) {
+    closest_on(p, corners, is_sliver(corners))
+}
+
+/// Whether the region test may fool itself on a triangle (see [`closest_on_triangle`]).
+fn is_sliver(corners: &[DVec3; 3]) -> bool {
     let [a, b, c] = *corners;
     let (ab, ac) = (b - a, c - a);
+    let area2 = ab.cross(ac).length_squared();
+    // Not larger: a NaN measure counts as a sliver, measured by its edges too.
+    area2.partial_cmp(&(1e-6 * ab.length_squared() * ac.length_squared()))
+        != Some(Ordering::Greater)
+}
+
+/// [`closest_on_triangle`], told whether the triangle [`is_sliver`].
+#[inline]
+fn closest_on(p: DVec3, corners: &[DVec3; 3], sliver: bool) -> (DVec3, [f64; 3]) {
     let regions = region_test(p, corners);
-    if ab.cross(ac).length_squared() > 1e-6 * ab.length_squared() * ac.length_squared() {
+    if !sliver {
         return regions;
     }
     let edges = closest_on_edges(p, *corners);
@@ -727,5 +867,61 @@ mod tests {
                 assert!(differ <= 10, "{what}");
             }
         }
+    }
+
+    /// The hierarchy of a skewed mesh (a dense cluster of small triangles and a few large ones
+    /// far away, where the heuristic's cheapest split is the most lopsided): every triangle
+    /// once, every box holding its triangles, every split leaving at least [`SIDE`] of its
+    /// triangles on each side, and so a depth within [`DEPTH`].
+    #[test]
+    fn a_skewed_mesh_makes_a_shallow_hierarchy_whose_boxes_hold_their_triangles() {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let mut triangles: Vec<[DVec3; 3]> = (0..20_000)
+            .map(|_| {
+                let a = DVec3::new(rng.random(), rng.random(), rng.random()) * 1e-3;
+                [a, a + DVec3::X * 1e-5, a + DVec3::Y * 1e-5]
+            })
+            .collect();
+        for k in 0..5 {
+            let a = DVec3::splat(1e3 * f64::from(k + 1));
+            triangles.push([a, a + DVec3::X, a + DVec3::Z]);
+        }
+        let centroid = |&[a, b, c]: &[DVec3; 3]| (a + b + c) / 3.0;
+        let (nodes, order) = hierarchy(&triangles, centroid, area, LEAF);
+        let mut seen = vec![0; triangles.len()];
+        // (node, depth, triangles under it)
+        let mut work = vec![(0usize, 1usize)];
+        let mut deepest = 0;
+        while let Some((n, depth)) = work.pop() {
+            deepest = deepest.max(depth);
+            let node = nodes[n];
+            let first = node.first as usize;
+            if node.count > 0 {
+                for &t in &order[first..first + node.count as usize] {
+                    seen[t as usize] += 1;
+                    for p in triangles[t as usize] {
+                        let (min, max) = (node.min.as_dvec3(), node.max.as_dvec3());
+                        assert!(p.cmpge(min).all() && p.cmple(max).all(), "{p} outside node {n}");
+                    }
+                }
+                continue;
+            }
+            let under = |child: usize| leaves_under(&nodes, child);
+            let (left, right) = (under(first), under(first + 1));
+            let fewest = (SIDE * (left + right) as f64).ceil() as usize;
+            assert!(left >= fewest && right >= fewest, "node {n} splits {left} + {right}");
+            work.extend([(first, depth + 1), (first + 1, depth + 1)]);
+        }
+        assert!(seen.iter().all(|&k| k == 1), "every triangle in exactly one leaf");
+        assert!(deepest <= 40, "{deepest} levels, the stack holds {DEPTH}");
+    }
+
+    /// The number of triangles in the leaves under node `n`.
+    fn leaves_under(nodes: &[Node], n: usize) -> usize {
+        let node = nodes[n];
+        if node.count > 0 {
+            return node.count as usize;
+        }
+        leaves_under(nodes, node.first as usize) + leaves_under(nodes, node.first as usize + 1)
     }
 }
