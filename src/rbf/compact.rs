@@ -120,6 +120,9 @@ fn cell_coordinates(p: DVec3, side: f64) -> [i64; 3] {
 /// with cells of side `rho`), for about 84 entries per centre.
 const CELLS_PER_RADIUS: f64 = 2.0;
 
+/// Centres a task of [`SupportIndex::new`] takes at a time.
+const INDEX_BLOCK: usize = 1024;
+
 /// A uniform grid over the supports of centres of one radius: cells of side
 /// `rho / CELLS_PER_RADIUS`, each listing every centre whose support ball meets it, so the
 /// centres that can cover a point are those of its one cell.
@@ -132,35 +135,52 @@ struct SupportIndex {
 }
 
 impl SupportIndex {
+    /// The index over `centres` with support radius `rho`. The (cell, centre) pairs are
+    /// counted first and written into one vector of their exact size, in parallel, then
+    /// sorted by cell: no vector grows, which on a large level costs more than the sort.
     fn new(centres: &[DVec3], rho: f64) -> SupportIndex {
         let side = rho / CELLS_PER_RADIUS;
-        let mut pairs: Vec<(u64, u32)> = centres
+        let reach = DVec3::splat(rho);
+        // The cells whose box `c`'s support ball meets.
+        let cells_of = |c: DVec3| {
+            let (lo, hi) = (cell_coordinates(c - reach, side), cell_coordinates(c + reach, side));
+            (lo[0]..=hi[0])
+                .flat_map(move |x| {
+                    (lo[1]..=hi[1]).flat_map(move |y| (lo[2]..=hi[2]).map(move |z| [x, y, z]))
+                })
+                .filter(move |&cell| box_distance2(c, cell, side) < rho * rho)
+        };
+        let blocks: Vec<&[DVec3]> = centres.chunks(INDEX_BLOCK).collect();
+        let counts: Vec<usize> = blocks
             .par_iter()
-            .enumerate()
-            .flat_map_iter(|(j, &c)| {
-                let lo = cell_coordinates(c - DVec3::splat(rho), side);
-                let hi = cell_coordinates(c + DVec3::splat(rho), side);
-                let mut cells = Vec::new();
-                for x in lo[0]..=hi[0] {
-                    for y in lo[1]..=hi[1] {
-                        for z in lo[2]..=hi[2] {
-                            if box_distance2(c, [x, y, z], side) < rho * rho {
-                                cells.push((key_of([x, y, z]), j as u32));
-                            }
-                        }
-                    }
-                }
-                cells
-            })
+            .map(|block| block.iter().map(|&c| cells_of(c).count()).sum())
             .collect();
+        let mut pairs = vec![(0u64, 0u32); counts.iter().sum()];
+        let mut rest = pairs.as_mut_slice();
+        let mut slices = Vec::with_capacity(blocks.len());
+        for &count in &counts {
+            let (slice, tail) = rest.split_at_mut(count);
+            slices.push(slice);
+            rest = tail;
+        }
+        slices.into_par_iter().zip(blocks).enumerate().for_each(|(b, (slice, block))| {
+            let first = b * INDEX_BLOCK;
+            let cells = block.iter().enumerate().flat_map(|(i, &c)| {
+                cells_of(c).map(move |cell| (key_of(cell), (first + i) as u32))
+            });
+            for (pair, cell) in slice.iter_mut().zip(cells) {
+                *pair = cell;
+            }
+        });
         pairs.par_sort_unstable();
         let mut cells = Cells::default();
+        cells.reserve(pairs.chunk_by(|a, b| a.0 == b.0).count());
         let mut start = 0;
         for run in pairs.chunk_by(|a, b| a.0 == b.0) {
             cells.insert(run[0].0, (start as u32, (start + run.len()) as u32));
             start += run.len();
         }
-        let entries = pairs.into_iter().map(|(_, j)| j).collect();
+        let entries = pairs.into_par_iter().map(|(_, j)| j).collect();
         SupportIndex { side, cells, entries }
     }
 
