@@ -5,7 +5,7 @@
 //! [`MeshDistance`] holds a bounding volume hierarchy over the triangles, leaves of at most
 //! [`LEAF`] triangles: each node split across the longest axis of its triangles' centroids
 //! where the surface area heuristic finds it cheapest (the children's box areas weighted by
-//! their triangles, over [`BINS`] bins), which makes tighter boxes than the median and so
+//! their triangles, over 16 bins), which makes tighter boxes than the median and so
 //! fewer nodes and triangles a query must open. It is built without recursion, and no split
 //! leaves less than a quarter of a node's triangles on one side, so a mesh of millions of
 //! triangles neither overflows a stack nor makes a deep tree.
@@ -408,7 +408,7 @@ impl MeshDistance {
 }
 
 /// Bins along an axis over which [`hierarchy`] weighs its splits.
-pub const BINS: usize = 16;
+const BINS: usize = 16;
 
 /// The fewest triangles a split leaves on either side, as a fraction of its node's: with fewer
 /// than 2^31 triangles, a hierarchy is at most log(2^31) / log(4/3) < 75 levels deep.

@@ -93,16 +93,9 @@ type Cells<V> = HashMap<u64, V, BuildHasherDefault<CellHasher>>;
 /// Bits of each coordinate in a cell's key.
 const KEY_BITS: u32 = 21;
 
-/// The key of the cell of side `side` holding `p`: its integer coordinates' low
-/// [`KEY_BITS`] bits packed. Cells `2^KEY_BITS` apart share a key (far beyond any model's
-/// supports); a point in such a cell reads centres that are too far to count, which every
-/// reader checks.
-#[inline]
-fn cell_of(p: DVec3, side: f64) -> u64 {
-    key_of(cell_coordinates(p, side))
-}
-
-/// The key of the cell of integer coordinates `c`.
+/// The key of the cell of integer coordinates `c` in a sparse table: their low [`KEY_BITS`]
+/// bits packed. Cells `2^KEY_BITS` apart share a key (far beyond any model's supports); a
+/// point in such a cell reads centres that are too far to count, which every reader checks.
 #[inline]
 fn key_of(c: [i64; 3]) -> u64 {
     let mask = (1u64 << KEY_BITS) - 1;
@@ -129,72 +122,188 @@ const INDEX_BLOCK: usize = 1024;
 #[derive(Debug, Clone)]
 struct SupportIndex {
     side: f64,
-    /// Each cell's range in `entries`.
-    cells: Cells<(u32, u32)>,
+    /// Where each cell's centres lie in `entries`.
+    cells: CellTable,
+    /// Each cell's centres, in their order, cell after cell.
     entries: Vec<u32>,
 }
 
+/// Where each cell of a [`SupportIndex`] lists its centres.
+#[derive(Debug, Clone)]
+enum CellTable {
+    /// Every cell of the box of cells from `low` (cell coordinates) with `dims` cells along
+    /// each axis: cell `i` (x-major) lists `entries[starts[i]..starts[i + 1]]`. For a level
+    /// whose box holds at most [`DENSE_CELLS_PER_ENTRY`] cells an entry: found without hashing.
+    Dense { low: [i64; 3], dims: [i64; 3], starts: Vec<u32> },
+    /// The cells that list a centre, by key, with their range of `entries`.
+    Sparse(Cells<(u32, u32)>),
+}
+
+/// The most cells of its box a level's index holds per entry in a [`CellTable::Dense`] table
+/// (4 bytes each): with more, the box is mostly empty and the table sparse.
+const DENSE_CELLS_PER_ENTRY: u64 = 4;
+
+impl CellTable {
+    /// The range of `entries` that cell `c` lists, if any.
+    #[inline]
+    fn range(&self, c: [i64; 3]) -> Option<(u32, u32)> {
+        match self {
+            CellTable::Dense { low, dims, starts } => {
+                let local: [i64; 3] = std::array::from_fn(|a| c[a] - low[a]);
+                if (0..3).any(|a| local[a] < 0 || local[a] >= dims[a]) {
+                    return None;
+                }
+                let i = ((local[0] * dims[1] + local[1]) * dims[2] + local[2]) as usize;
+                Some((starts[i], starts[i + 1]))
+            }
+            CellTable::Sparse(cells) => cells.get(&key_of(c)).copied(),
+        }
+    }
+
+    fn bytes(&self) -> usize {
+        match self {
+            CellTable::Dense { starts, .. } => starts.len() * 4,
+            CellTable::Sparse(cells) => cells.len() * 24,
+        }
+    }
+}
+
 impl SupportIndex {
-    /// The index over `centres` with support radius `rho`. The (cell, centre) pairs are
-    /// counted first and written into one vector of their exact size, in parallel, then
-    /// sorted by cell: no vector grows, which on a large level costs more than the sort.
+    /// The index over `centres` with support radius `rho`. Each centre's cells are counted
+    /// first and written into one vector of their exact size, in parallel (no vector grows,
+    /// which on a large level costs more than the rest); then, where the centres' box of cells
+    /// is small enough for a dense table, each cell's centres are counted and placed in it in
+    /// one pass, and otherwise the (cell, centre) pairs are sorted by cell. Either way a cell
+    /// lists its centres in their order.
     fn new(centres: &[DVec3], rho: f64) -> SupportIndex {
         let side = rho / CELLS_PER_RADIUS;
         let reach = DVec3::splat(rho);
+        let span =
+            |c: DVec3| (cell_coordinates(c - reach, side), cell_coordinates(c + reach, side));
         // The cells whose box `c`'s support ball meets.
         let cells_of = |c: DVec3| {
-            let (lo, hi) = (cell_coordinates(c - reach, side), cell_coordinates(c + reach, side));
+            let (lo, hi) = span(c);
             (lo[0]..=hi[0])
                 .flat_map(move |x| {
                     (lo[1]..=hi[1]).flat_map(move |y| (lo[2]..=hi[2]).map(move |z| [x, y, z]))
                 })
                 .filter(move |&cell| box_distance2(c, cell, side) < rho * rho)
         };
-        let blocks: Vec<&[DVec3]> = centres.chunks(INDEX_BLOCK).collect();
-        let counts: Vec<usize> = blocks
-            .par_iter()
-            .map(|block| block.iter().map(|&c| cells_of(c).count()).sum())
-            .collect();
-        let mut pairs = vec![(0u64, 0u32); counts.iter().sum()];
-        let mut rest = pairs.as_mut_slice();
-        let mut slices = Vec::with_capacity(blocks.len());
-        for &count in &counts {
-            let (slice, tail) = rest.split_at_mut(count);
-            slices.push(slice);
-            rest = tail;
+        if centres.is_empty() {
+            return SupportIndex {
+                side,
+                cells: CellTable::Sparse(Cells::default()),
+                entries: vec![],
+            };
         }
-        slices.into_par_iter().zip(blocks).enumerate().for_each(|(b, (slice, block))| {
-            let first = b * INDEX_BLOCK;
-            let cells = block.iter().enumerate().flat_map(|(i, &c)| {
-                cells_of(c).map(move |cell| (key_of(cell), (first + i) as u32))
-            });
-            for (pair, cell) in slice.iter_mut().zip(cells) {
-                *pair = cell;
-            }
+        let counts: Vec<u32> = centres.par_iter().map(|&c| cells_of(c).count() as u32).collect();
+        let (low, high) = centres.iter().fold(([i64::MAX; 3], [i64::MIN; 3]), |(low, high), &c| {
+            let (lo, hi) = span(c);
+            (
+                std::array::from_fn(|a| low[a].min(lo[a])),
+                std::array::from_fn(|a| high[a].max(hi[a])),
+            )
         });
+        let dims: [i64; 3] = std::array::from_fn(|a| (high[a] - low[a] + 1).max(1));
+        let total: u64 = counts.iter().map(|&k| u64::from(k)).sum();
+        let boxed = dims.iter().map(|&d| d as f64).product::<f64>();
+        let dense = boxed <= (DENSE_CELLS_PER_ENTRY * total.max(1024)) as f64
+            && total < u64::from(u32::MAX);
+        let cell_id = |c: [i64; 3]| -> u64 {
+            let local: [i64; 3] = std::array::from_fn(|a| c[a] - low[a]);
+            ((local[0] * dims[1] + local[1]) * dims[2] + local[2]) as u64
+        };
+        let key = |c: [i64; 3]| if dense { cell_id(c) } else { key_of(c) };
+        let mut cells_by_centre = vec![0u64; total as usize];
+        {
+            let mut rest = cells_by_centre.as_mut_slice();
+            let mut slices = Vec::with_capacity(centres.len());
+            for &count in &counts {
+                let (slice, tail) = rest.split_at_mut(count as usize);
+                slices.push(slice);
+                rest = tail;
+            }
+            slices.into_par_iter().zip(centres).with_min_len(INDEX_BLOCK).for_each(
+                |(slice, &c)| {
+                    for (out, cell) in slice.iter_mut().zip(cells_of(c)) {
+                        *out = key(cell);
+                    }
+                },
+            );
+        }
+        let (cells, entries) = if dense {
+            let starts = Self::starts(&cells_by_centre, dims.iter().product::<i64>() as usize);
+            let entries = Self::place(&cells_by_centre, &counts, starts.clone());
+            (CellTable::Dense { low, dims, starts }, entries)
+        } else {
+            Self::sparse(cells_by_centre, &counts)
+        };
+        SupportIndex { side, cells, entries }
+    }
+
+    /// The dense table's starts, one more than its `boxed` cells: each cell's centres counted
+    /// (`cells`: each centre's cells, dense ids), the counts summed.
+    fn starts(cells: &[u64], boxed: usize) -> Vec<u32> {
+        let mut starts = vec![0u32; boxed + 1];
+        for &cell in cells {
+            starts[cell as usize + 1] += 1;
+        }
+        for i in 1..starts.len() {
+            starts[i] += starts[i - 1];
+        }
+        starts
+    }
+
+    /// The dense table's entries: each centre placed, centre by centre, at the next free entry
+    /// of each of its cells (`cells`, dense ids, `counts` of them a centre); `next`: the
+    /// table's starts, where each cell's first centre goes.
+    fn place(cells: &[u64], counts: &[u32], mut next: Vec<u32>) -> Vec<u32> {
+        let mut entries = vec![0u32; cells.len()];
+        let mut cell_lists = cells.iter();
+        for (j, &count) in counts.iter().enumerate() {
+            for &cell in cell_lists.by_ref().take(count as usize) {
+                let slot = &mut next[cell as usize];
+                entries[*slot as usize] = j as u32;
+                *slot += 1;
+            }
+        }
+        entries
+    }
+
+    /// The sparse table and the entries: the (cell, centre) pairs sorted by cell (and centre).
+    /// `cells`: each centre's cells (keys), `counts` of them a centre.
+    fn sparse(cells: Vec<u64>, counts: &[u32]) -> (CellTable, Vec<u32>) {
+        let owners =
+            counts.iter().enumerate().flat_map(|(j, &k)| std::iter::repeat_n(j as u32, k as usize));
+        let mut pairs: Vec<(u64, u32)> = cells.into_iter().zip(owners).collect();
         pairs.par_sort_unstable();
-        let mut cells = Cells::default();
-        cells.reserve(pairs.chunk_by(|a, b| a.0 == b.0).count());
+        let mut table = Cells::default();
+        table.reserve(pairs.chunk_by(|a, b| a.0 == b.0).count());
         let mut start = 0;
         for run in pairs.chunk_by(|a, b| a.0 == b.0) {
-            cells.insert(run[0].0, (start as u32, (start + run.len()) as u32));
+            table.insert(run[0].0, (start as u32, (start + run.len()) as u32));
             start += run.len();
         }
-        let entries = pairs.into_par_iter().map(|(_, j)| j).collect();
-        SupportIndex { side, cells, entries }
+        (CellTable::Sparse(table), pairs.into_par_iter().map(|(_, j)| j).collect())
     }
 
     /// The centres whose support may cover `p`: every one that does, and a few more.
     #[inline]
     fn near(&self, p: DVec3) -> &[u32] {
-        match self.cells.get(&cell_of(p, self.side)) {
-            Some(&(start, end)) => &self.entries[start as usize..end as usize],
+        self.list(cell_coordinates(p, self.side))
+    }
+
+    /// The centres cell `c` lists.
+    #[inline]
+    fn list(&self, c: [i64; 3]) -> &[u32] {
+        match self.cells.range(c) {
+            Some((start, end)) => &self.entries[start as usize..end as usize],
             None => &[],
         }
     }
 
     fn bytes(&self) -> usize {
-        self.entries.len() * 4 + self.cells.len() * 24
+        self.entries.len() * 4 + self.cells.bytes()
     }
 }
 
@@ -365,9 +474,7 @@ impl DetailLevel {
         for x in lo[0]..=hi[0] {
             for y in lo[1]..=hi[1] {
                 for z in lo[2]..=hi[2] {
-                    if let Some(&(start, end)) = self.index.cells.get(&key_of([x, y, z])) {
-                        near.extend_from_slice(&self.index.entries[start as usize..end as usize]);
-                    }
+                    near.extend_from_slice(self.index.list([x, y, z]));
                 }
             }
         }
@@ -662,6 +769,39 @@ mod tests {
         let far = DVec3::splat(-5.0);
         assert_eq!(level.value(far), 0.0);
         assert_eq!(level.value_brute_force(far), 0.0);
+    }
+
+    /// Both kinds of cell table give every covering centre, in the same order: the centres of
+    /// a unit cube (a dense table) and the same centres split into two clusters far apart (a
+    /// box of cells mostly empty: a sparse one), evaluated locally against every centre.
+    #[test]
+    fn dense_and_sparse_tables_list_the_same_centres() {
+        let cube: Vec<DVec3> = random_points(400, 11).into_iter().map(|p| p * 4.0).collect();
+        let apart: Vec<DVec3> = cube
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| if i % 2 == 0 { c } else { c + DVec3::X * 1e4 })
+            .collect();
+        let weights: Vec<f64> = (0..400).map(|i| ((i * 31) % 11) as f64 - 5.0).collect();
+        for (centres, dense) in [(cube, true), (apart, false)] {
+            let level = DetailLevel::new("test", 0.9, centres.clone(), weights.clone()).unwrap();
+            assert_eq!(matches!(level.index.cells, CellTable::Dense { .. }), dense);
+            let points = random_points(3000, 12).into_iter().map(|p| p * 5.0 - DVec3::splat(0.5));
+            for p in points.flat_map(|p| [p, p + DVec3::X * 1e4]) {
+                let (local, brute) = (level.value(p), level.value_brute_force(p));
+                assert!(
+                    (local - brute).abs() <= 1e-12 * (1.0 + brute.abs()),
+                    "{p}: {local} {brute}"
+                );
+                let listed = level.index.near(p);
+                assert!(listed.windows(2).all(|w| w[0] < w[1]), "{p}: centres in their order");
+                for (j, &c) in level.centres.iter().enumerate() {
+                    if p.distance(c) < level.radius {
+                        assert!(listed.contains(&(j as u32)), "{p}: centre {j} not listed");
+                    }
+                }
+            }
+        }
     }
 
     /// The sparse solve interpolates: at every centre the level takes its value, to the stated
