@@ -139,6 +139,17 @@ enum CellTable {
     Sparse(Cells<(u32, u32)>),
 }
 
+/// The index, x-major, of cell `c` in the box of cells from `low` with `dims` cells along each
+/// axis, or `None` outside it.
+#[inline]
+fn box_index(low: [i64; 3], dims: [i64; 3], c: [i64; 3]) -> Option<usize> {
+    let local: [i64; 3] = std::array::from_fn(|a| c[a] - low[a]);
+    if (0..3).any(|a| local[a] < 0 || local[a] >= dims[a]) {
+        return None;
+    }
+    Some(((local[0] * dims[1] + local[1]) * dims[2] + local[2]) as usize)
+}
+
 /// The most cells of its box a level's index holds per entry in a [`CellTable::Dense`] table
 /// (4 bytes each): with more, the box is mostly empty and the table sparse.
 const DENSE_CELLS_PER_ENTRY: u64 = 4;
@@ -149,11 +160,7 @@ impl CellTable {
     fn range(&self, c: [i64; 3]) -> Option<(u32, u32)> {
         match self {
             CellTable::Dense { low, dims, starts } => {
-                let local: [i64; 3] = std::array::from_fn(|a| c[a] - low[a]);
-                if (0..3).any(|a| local[a] < 0 || local[a] >= dims[a]) {
-                    return None;
-                }
-                let i = ((local[0] * dims[1] + local[1]) * dims[2] + local[2]) as usize;
+                let i = box_index(*low, *dims, c)?;
                 Some((starts[i], starts[i + 1]))
             }
             CellTable::Sparse(cells) => cells.get(&key_of(c)).copied(),
@@ -209,11 +216,11 @@ impl SupportIndex {
         let boxed = dims.iter().map(|&d| d as f64).product::<f64>();
         let dense = boxed <= (DENSE_CELLS_PER_ENTRY * total.max(1024)) as f64
             && total < u64::from(u32::MAX);
-        let cell_id = |c: [i64; 3]| -> u64 {
-            let local: [i64; 3] = std::array::from_fn(|a| c[a] - low[a]);
-            ((local[0] * dims[1] + local[1]) * dims[2] + local[2]) as u64
+        // A centre's cells lie in the box of all of them, so a dense id always exists.
+        let key = |c: [i64; 3]| match box_index(low, dims, c) {
+            Some(i) if dense => i as u64,
+            _ => key_of(c),
         };
-        let key = |c: [i64; 3]| if dense { cell_id(c) } else { key_of(c) };
         let mut cells_by_centre = vec![0u64; total as usize];
         {
             let mut rest = cells_by_centre.as_mut_slice();
