@@ -61,12 +61,13 @@ const FOLLOW_PER_VOXEL: u64 = 12;
 /// their values, and the evaluation's tables.
 const POLYGONIZE_BASE: u64 = 96 << 20;
 /// Bytes per triangle of a distance query, beyond reading the mesh: the hierarchy while it is
-/// built ([`crate::mesh_distance::BYTES_PER_TRIANGLE`], 213), for the sign the hierarchies of
-/// the lines along the three axes (each a copy of the corners and its nodes, 88, and while
-/// built its keys, 32: 360 for the three) and the winding number's tree where the lines
-/// disagree (its nodes and reordered corners, about 300). Measured with [`PER_TRIANGLE`]: 468
-/// a triangle all told where the rays settle every point (`implicitize distance` of one point,
-/// signed, on a bumpy sphere of 599,850 triangles: 281 MB at the peak; 168 MB unsigned).
+/// built ([`crate::mesh_distance::BYTES_PER_TRIANGLE`], 213), for the sign the lines' grids
+/// across the three axes (a copy of the re-oriented corners, 72, and for each axis at most 8
+/// entries a triangle and about one cell, 40: 192 for the three) and the winding number's tree
+/// where the lines disagree (its nodes and reordered corners, about 300). Measured with
+/// [`PER_TRIANGLE`]: 417 a triangle all told where the rays settle every point (`implicitize
+/// distance` of one point, signed, on a bumpy sphere of 599,850 triangles: 250 MB at the peak;
+/// 174 MB unsigned).
 const DISTANCE_PER_TRIANGLE: u64 = 900;
 /// Bytes per query point of a distance query: the points as read and as vectors, each one's
 /// closest point, triangle and barycentrics, its distance and side, and the closest points as

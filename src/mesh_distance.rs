@@ -22,8 +22,8 @@
 //!   units, like every value of this crate. Inside is decided as the voxelizer decides it at a
 //!   voxel centre ([`crate::voxelize`]), over the triangles re-oriented as it re-orients them
 //!   (consistently across shared edges, outward), so a flipped or partly flipped mesh has the
-//!   same inside as the original: the lines through the point along the three axes, cast
-//!   through the hierarchy, vote (by the nonzero rule along a line whose entries and exits
+//!   same inside as the original: the lines through the point along the three axes (their
+//!   triangles listed in a grid across each axis), vote (by the nonzero rule along a line whose entries and exits
 //!   balance, by parity along another with an even number of crossings; a line through a hole
 //!   abstains); where fewer than two vote or they disagree, the generalized winding number
 //!   (Jacobson et al. 2013, evaluated as the voxelizer does) decides: inside where it is at
@@ -164,7 +164,8 @@ impl MeshDistance {
         if mesh.triangles.is_empty() {
             return Err(Error::invalid(context, "no triangles to measure a distance to"));
         }
-        if mesh.triangles.len() > u32::MAX as usize / 2 {
+        // The sign's planes list up to 8 entries a triangle, indexed in 32 bits.
+        if mesh.triangles.len() > u32::MAX as usize / PLANE_ENTRIES_PER_TRIANGLE as usize {
             return Err(Error::invalid(
                 context,
                 format!("{} triangles, more than a distance query can index", mesh.triangles.len()),
@@ -358,10 +359,19 @@ impl MeshDistance {
 
     /// The distance of each point to the surface, positive inside and negative outside, inside
     /// as [`MeshDistance::inside`] decides it (see the module doc).
+    /// Each point's distance and side are found together, along one curve.
     pub fn signed(&self, points: &[DVec3]) -> Vec<f64> {
-        let nearest = self.nearest_all(points);
-        let inside = self.inside(points);
-        nearest.iter().zip(inside).map(|(n, inside)| signed(n.distance, inside)).collect()
+        let sign = Sign::new(self);
+        along_curve(points, |run| {
+            let mut start = 0;
+            run.iter()
+                .map(|&i| {
+                    let (d2, t) = self.search(points[i], self.seed(points[i], start));
+                    start = t;
+                    signed(d2.sqrt(), sign.inside(points[i]))
+                })
+                .collect()
+        })
     }
 
     /// Whether each point is inside, as [`MeshDistance::signed`] signs it (see the module doc):
@@ -371,21 +381,8 @@ impl MeshDistance {
     /// same curve as [`MeshDistance::nearest_all`], so that neighbouring queries read the same
     /// nodes.
     pub fn inside(&self, points: &[DVec3]) -> Vec<bool> {
-        // Found before the lines' hierarchies, so that the two do not hold memory at once.
-        self.flipped();
-        let lines = Lines::new(self);
-        let winding = OnceLock::new();
-        along_curve(points, |run| {
-            run.iter()
-                .map(|&i| {
-                    let p = points[i];
-                    lines.votes(p).verdict().unwrap_or_else(|| {
-                        let (winding, frame) = winding.get_or_init(|| self.winding());
-                        winding.at(frame.to_grid(p)) >= 0.5
-                    })
-                })
-                .collect()
-        })
+        let sign = Sign::new(self);
+        along_curve(points, |run| run.iter().map(|&i| sign.inside(points[i])).collect())
     }
 
     /// The winding number's tree over the triangles (in the hierarchy's order: the sum does
@@ -561,89 +558,190 @@ fn corner_box_distance_squared(p: DVec3, corners: &[DVec3; 3]) -> f64 {
     (min - p).max(p - max).max(DVec3::ZERO).length_squared()
 }
 
-/// Most triangles in a leaf of a [`Lines`] hierarchy.
-const LINE_LEAF: usize = 8;
+/// The most cells a triangle's projection covers on average in a [`Plane`]: the grid is made
+/// coarser until its lists hold at most this many entries a triangle.
+const PLANE_ENTRIES_PER_TRIANGLE: u64 = 8;
 
-/// A hierarchy over the triangles for the lines along each axis: split only across the axis
-/// (the triangles' centroids projected along it, the heuristic weighing the boxes' areas
-/// across it, which a line's chance of passing through a box is), so that the boxes a line
-/// passes through are few, as for a two-dimensional hierarchy of the projected triangles.
-/// Each keeps its own copy of the triangles, re-oriented, in its order, so that a leaf's
-/// triangles are read from one place.
+/// The triangles for the lines along each axis: the triangles re-oriented, in the hierarchy's
+/// order, and for each axis a [`Plane`], a uniform grid across the axis listing the triangles
+/// whose projected box covers each cell, so that a line finds its triangles in one cell.
 struct Lines {
-    trees: [(Vec<Node>, Vec<[DVec3; 3]>); 3],
+    triangles: Vec<[DVec3; 3]>,
+    planes: [Plane; 3],
 }
 
 impl Lines {
-    /// The three hierarchies over `query`'s triangles, built in parallel.
+    /// The three planes over `query`'s triangles, built in parallel.
     fn new(query: &MeshDistance) -> Lines {
-        let across = |axis: usize| {
-            let key = move |&[a, b, c]: &[DVec3; 3]| {
-                let mut centroid = (a + b + c) / 3.0;
-                centroid[axis] = 0.0;
-                centroid
-            };
-            let (u, v) = plane_axes(axis);
-            let across = move |extent: DVec3| extent[u] * extent[v];
-            let (nodes, order) = hierarchy(&query.triangles, key, across, LINE_LEAF);
-            (nodes, order.iter().map(|&t| query.oriented(t as usize)).collect())
-        };
-        let (x, (y, z)) = rayon::join(|| across(0), || rayon::join(|| across(1), || across(2)));
-        Lines { trees: [x, y, z] }
+        let triangles: Vec<[DVec3; 3]> = (0..query.len()).map(|t| query.oriented(t)).collect();
+        let root = &query.nodes[0];
+        let (low, high) = (root.min.as_dvec3(), root.max.as_dvec3());
+        let plane = |axis| Plane::new(&triangles, axis, low, high);
+        let (x, (y, z)) = rayon::join(|| plane(0), || rayon::join(|| plane(1), || plane(2)));
+        Lines { triangles, planes: [x, y, z] }
     }
 
     /// The votes at `p` of the rays through it along the three axes.
     fn votes(&self, p: DVec3) -> Votes {
         let mut votes = Votes::default();
-        for (axis, tree) in self.trees.iter().enumerate() {
-            votes.add(Lines::ray(tree, p, axis).vote());
+        for (axis, plane) in self.planes.iter().enumerate() {
+            votes.add(self.ray(plane, p, axis).vote());
         }
         votes
     }
 
     /// The crossings of the line through `p` along `axis` with the re-oriented triangles,
-    /// counted against `p`: the boxes of `tree` (the hierarchy along `axis`) the
-    /// line passes through are opened, and each of their triangles is crossed as the voxelizer
-    /// crosses it (shared edges and corners count once).
-    fn ray((nodes, triangles): &(Vec<Node>, Vec<[DVec3; 3]>), p: DVec3, axis: usize) -> Tally {
+    /// counted against `p`: the triangles listed in the line's cell of `plane` are crossed as
+    /// the voxelizer crosses them (shared edges and corners count once).
+    fn ray(&self, plane: &Plane, p: DVec3, axis: usize) -> Tally {
         let (u, v) = plane_axes(axis);
         let q = [p[u], p[v]];
-        let across = |node: &Node| {
-            let within =
-                |a: usize, x: f64| f64::from(node.min[a]) <= x && x <= f64::from(node.max[a]);
-            within(u, q[0]) && within(v, q[1])
-        };
         let mut tally = Tally::default();
-        let mut stack = [0u32; DEPTH];
-        let mut top = 1;
-        while top > 0 {
-            top -= 1;
-            let node = &nodes[stack[top] as usize];
-            if !across(node) {
+        for &t in plane.listed(q) {
+            let corners = &self.triangles[t as usize];
+            let [a, b, c] = *corners;
+            // Wholly to one side of the line (a tie is left to the crossing test).
+            let aside = |k: usize, x: f64| {
+                (a[k] < x && b[k] < x && c[k] < x) || (a[k] > x && b[k] > x && c[k] > x)
+            };
+            if aside(u, q[0]) || aside(v, q[1]) {
                 continue;
             }
-            let first = node.first as usize;
-            if node.count > 0 {
-                for corners in &triangles[first..first + node.count as usize] {
-                    let [a, b, c] = *corners;
-                    // Wholly to one side of the line (a tie is left to the crossing test).
-                    let aside = |k: usize, x: f64| {
-                        (a[k] < x && b[k] < x && c[k] < x) || (a[k] > x && b[k] > x && c[k] > x)
-                    };
-                    if aside(u, q[0]) || aside(v, q[1]) {
-                        continue;
-                    }
-                    if let Some((depth, enter)) = Projected::new(corners, axis).cross(q) {
-                        tally.add(depth, enter, p[axis]);
-                    }
-                }
-                continue;
+            if let Some((depth, enter)) = Projected::new(corners, axis).cross(q) {
+                tally.add(depth, enter, p[axis]);
             }
-            stack[top] = first as u32;
-            stack[top + 1] = first as u32 + 1;
-            top += 2;
         }
         tally
+    }
+}
+
+/// A uniform grid of square cells over the plane across one axis, each cell listing the
+/// triangles whose projected box (closed) meets it. A point's cell is found by the same
+/// monotone rounding as a box's cells, so every triangle whose box holds the point is listed
+/// in its cell, points outside the grid falling into its border cells.
+struct Plane {
+    /// The axes of the plane: (u, v) of [`plane_axes`].
+    axes: (usize, usize),
+    /// The (u, v) corner of the grid.
+    origin: [f64; 2],
+    /// Cells per unit of length (0 for a grid of one cell).
+    scale: f64,
+    /// Cells along u and v.
+    dims: [usize; 2],
+    /// Where each cell's list starts in `listed`, row after row along u, and where the last
+    /// one ends.
+    starts: Vec<u32>,
+    /// The triangles of each cell, in their order.
+    listed: Vec<u32>,
+}
+
+impl Plane {
+    /// The plane across `axis` over `triangles`, whose box is `low` to `high`: about as many
+    /// cells as triangles, made coarser until the lists hold at most
+    /// [`PLANE_ENTRIES_PER_TRIANGLE`] entries a triangle.
+    fn new(triangles: &[[DVec3; 3]], axis: usize, low: DVec3, high: DVec3) -> Plane {
+        let (u, v) = plane_axes(axis);
+        let longest = (high[u] - low[u]).max(high[v] - low[v]);
+        let budget = PLANE_ENTRIES_PER_TRIANGLE * triangles.len() as u64;
+        let mut across = (triangles.len() as f64).sqrt().ceil().clamp(1.0, 4096.0);
+        loop {
+            let scale = across / longest;
+            let mut plane = Plane {
+                axes: (u, v),
+                origin: [low[u], low[v]],
+                scale: if scale.is_finite() { scale } else { 0.0 },
+                dims: [usize::MAX; 2],
+                starts: Vec::new(),
+                listed: Vec::new(),
+            };
+            plane.dims = [plane.cell(0, high[u]) + 1, plane.cell(1, high[v]) + 1];
+            let covered = |t: &[DVec3; 3]| {
+                let [a, b] = plane.cells(t);
+                ((b[0] - a[0] + 1) * (b[1] - a[1] + 1)) as u64
+            };
+            if across <= 1.0 || triangles.iter().map(covered).sum::<u64>() <= budget {
+                plane.fill(triangles);
+                return plane;
+            }
+            across = (across / 2.0).floor();
+        }
+    }
+
+    /// The cell along `k` (0 for u, 1 for v) of coordinate `x`: rounded down, within the grid
+    /// (`as` saturates: below the origin, and NaN, is cell 0).
+    #[inline]
+    fn cell(&self, k: usize, x: f64) -> usize {
+        (((x - self.origin[k]) * self.scale) as usize).min(self.dims[k] - 1)
+    }
+
+    /// The first and last cells (u, v) of the projected box of `triangle`.
+    fn cells(&self, triangle: &[DVec3; 3]) -> [[usize; 2]; 2] {
+        let (min, max) = corner_box(triangle);
+        let (u, v) = self.axes;
+        [[self.cell(0, min[u]), self.cell(1, min[v])], [self.cell(0, max[u]), self.cell(1, max[v])]]
+    }
+
+    /// Calls `visit` with each cell (its index, row after row) that `triangle` covers.
+    fn each_cell(&self, triangle: &[DVec3; 3], mut visit: impl FnMut(usize)) {
+        let [a, b] = self.cells(triangle);
+        for j in a[1]..=b[1] {
+            for i in a[0]..=b[0] {
+                visit(j * self.dims[0] + i);
+            }
+        }
+    }
+
+    /// Lists every triangle in the cells its projected box meets: counted, then placed.
+    fn fill(&mut self, triangles: &[[DVec3; 3]]) {
+        let mut starts = vec![0u32; self.dims[0] * self.dims[1] + 1];
+        for triangle in triangles {
+            self.each_cell(triangle, |cell| starts[cell + 1] += 1);
+        }
+        for c in 1..starts.len() {
+            starts[c] += starts[c - 1];
+        }
+        let mut listed = vec![0u32; starts[starts.len() - 1] as usize];
+        let mut next = starts.clone();
+        for (t, triangle) in (0u32..).zip(triangles) {
+            self.each_cell(triangle, |cell| {
+                listed[next[cell] as usize] = t;
+                next[cell] += 1;
+            });
+        }
+        (self.starts, self.listed) = (starts, listed);
+    }
+
+    /// The triangles listed in the cell of the point `q` (u, v).
+    #[inline]
+    fn listed(&self, q: [f64; 2]) -> &[u32] {
+        let cell = self.cell(1, q[1]) * self.dims[0] + self.cell(0, q[0]);
+        &self.listed[self.starts[cell] as usize..self.starts[cell + 1] as usize]
+    }
+}
+
+/// The voxelizer's inside decision at any point (see [`MeshDistance::inside`]): the lines
+/// along the three axes, and the winding number's tree, built the first time the lines
+/// disagree.
+struct Sign<'a> {
+    query: &'a MeshDistance,
+    lines: Lines,
+    winding: OnceLock<(Winding, Frame)>,
+}
+
+impl Sign<'_> {
+    /// The lines over `query`'s triangles, re-oriented.
+    fn new(query: &MeshDistance) -> Sign<'_> {
+        // Found before the lines, so that the two do not hold memory at once.
+        query.flipped();
+        Sign { query, lines: Lines::new(query), winding: OnceLock::new() }
+    }
+
+    /// Whether `p` is inside.
+    fn inside(&self, p: DVec3) -> bool {
+        self.lines.votes(p).verdict().unwrap_or_else(|| {
+            let (winding, frame) = self.winding.get_or_init(|| self.query.winding());
+            winding.at(frame.to_grid(p)) >= 0.5
+        })
     }
 }
 
@@ -923,5 +1021,51 @@ mod tests {
             return node.count as usize;
         }
         leaves_under(nodes, node.first as usize) + leaves_under(nodes, node.first as usize + 1)
+    }
+
+    /// A plane over small triangles, a few that span the box (which make its grid coarser),
+    /// triangles seen edge-on and a point-like one: at points anywhere (random, on corners,
+    /// on the box's faces, outside it), the point's cell lists every triangle whose projected
+    /// box holds the point, and the lists hold at most their budget of entries.
+    #[test]
+    fn a_line_finds_every_triangle_whose_box_it_meets_in_its_cell() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut random = || DVec3::new(rng.random(), rng.random(), rng.random());
+        let mut triangles: Vec<[DVec3; 3]> = (0..3_000)
+            .map(|_| {
+                let a = random();
+                [a, a + random() * 0.03, a + random() * 0.03]
+            })
+            .collect();
+        for k in 0..40 {
+            let a = random();
+            triangles.push([a * 0.1, DVec3::new(1.0, a.y, 0.5), DVec3::new(a.x, 1.0, 1.0)]);
+            // Edge-on along x, and a triangle whose corners coincide.
+            triangles.push([a, a + DVec3::X * 0.2, a + DVec3::X * 0.1 * k as f64]);
+            triangles.push([a, a, a]);
+        }
+        let corners: Vec<DVec3> = triangles.iter().flatten().copied().collect();
+        let (low, high) = (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN));
+        let (low, high) = corners.iter().fold((low, high), |(l, h), &p| (l.min(p), h.max(p)));
+        let mut points: Vec<DVec3> =
+            (0..4_000).map(|_| random() * 1.4 - DVec3::splat(0.2)).collect();
+        points.extend(corners.iter().step_by(7));
+        points.extend([low, high, DVec3::new(low.x, high.y, low.z), DVec3::splat(-5.0)]);
+        for axis in 0..3 {
+            let plane = Plane::new(&triangles, axis, low, high);
+            let budget = PLANE_ENTRIES_PER_TRIANGLE as usize * triangles.len();
+            assert!(plane.listed.len() <= budget, "{} entries", plane.listed.len());
+            let (u, v) = plane_axes(axis);
+            for p in &points {
+                let q = [p[u], p[v]];
+                let listed = plane.listed(q);
+                for (t, corners) in triangles.iter().enumerate() {
+                    let (min, max) = corner_box(corners);
+                    let holds =
+                        min[u] <= q[0] && q[0] <= max[u] && min[v] <= q[1] && q[1] <= max[v];
+                    assert!(!holds || listed.contains(&(t as u32)), "axis {axis}, {p}: {t}");
+                }
+            }
+        }
     }
 }

@@ -37,7 +37,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, DVec3};
 use crate::mesh::Mesh;
-use crate::mesh_distance::{self, MeshDistance};
+use crate::mesh_distance::MeshDistance;
 use crate::pipeline::SampleOptions;
 
 /// The uniform points' box: the mesh's box grown on every side by this fraction of its size
@@ -121,10 +121,7 @@ pub(crate) fn sample(
                 .collect::<Vec<_>>()
         })
         .collect();
-    let nearest = query.nearest_all(&points);
-    let inside = query.inside(&points);
-    let sdf =
-        nearest.iter().zip(inside).map(|(n, i)| mesh_distance::signed(n.distance, i)).collect();
+    let sdf = query.signed(&points);
     Ok(Samples { points, sdf, near, uniform })
 }
 
