@@ -262,6 +262,21 @@ impl MeshDistance {
         })
     }
 
+    /// The distance of each point to the surface: [`MeshDistance::nearest_all`]'s distances,
+    /// without the closest points.
+    pub fn distances(&self, points: &[DVec3]) -> Vec<f64> {
+        along_curve(points, |run| {
+            let mut start = 0;
+            run.iter()
+                .map(|&i| {
+                    let (d2, t) = self.search(points[i], self.seed(points[i], start));
+                    start = t;
+                    d2.sqrt()
+                })
+                .collect()
+        })
+    }
+
     /// The squared distance from `p` to triangle `t` (in the hierarchy's order) and `t`: a
     /// start for [`MeshDistance::search`].
     #[inline]

@@ -35,8 +35,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::distance;
@@ -692,9 +690,8 @@ impl<'a> Prepared<'a> {
                 let mut goal =
                     Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
                 if options.has_levels(&grid) {
-                    let mut rng = ChaCha8Rng::seed_from_u64(options.fit.seed);
                     let n = goal.surface().len();
-                    if let Some(points) = surface_distance::sample(mesh, n, &mut rng) {
+                    if let Some(points) = surface_distance::sample(mesh, n, options.fit.seed) {
                         goal = goal.with_mesh_points(points);
                     }
                 }
@@ -799,9 +796,8 @@ impl<'a> Prepared<'a> {
                 let voxel = self.goal.grid().voxel_size;
                 let half = shell.in_mesh_units(voxel) / voxel / 2.0;
                 // The middle of the wall, about as many points as one of its faces has.
-                let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
                 let n = self.goal.surface().len() / 2;
-                let mid = surface_distance::sample(self.mesh, n, &mut rng).unwrap_or_default();
+                let mid = surface_distance::sample(self.mesh, n, options.seed).unwrap_or_default();
                 let fitted = fit::levels::fit_shell(&self.goal, &mid, half, &options)?;
                 (fitted.shape, fitted.report)
             }

@@ -24,8 +24,6 @@
 //! and 2 voxels stopped at E 12 and 18 on the default grid). The resolution it names makes the
 //! thin walls [`HELD_WALL`] voxels thick.
 
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -96,9 +94,8 @@ impl Thickness {
         depths.sort_by(f64::total_cmp);
         let max_depth = depths.last().copied().unwrap_or(0.0);
         let low_depth = depths.get(depths.len() / 10).copied().unwrap_or(0.0);
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let points =
-            crate::surface_distance::sample(mesh, SURFACE_POINTS, &mut rng).unwrap_or_default();
+            crate::surface_distance::sample(mesh, SURFACE_POINTS, seed).unwrap_or_default();
         let drawn = points.len().max(1);
         let thin: Vec<DVec3> =
             points.into_par_iter().filter(|&p| !has_deep_voxel(sd, grid.to_grid(p))).collect();
@@ -194,7 +191,7 @@ fn medial_depths(sd: &Volume<f32>, query: &MeshDistance) -> Vec<f64> {
     let stride = medial.len().div_ceil(MEDIAL_POINTS).max(1);
     let points: Vec<DVec3> =
         medial.iter().step_by(stride).map(|&n| grid.position(grid.voxel(n))).collect();
-    query.nearest_all(&points).iter().map(|n| n.distance / grid.voxel_size).collect()
+    query.distances(&points).iter().map(|d| d / grid.voxel_size).collect()
 }
 
 /// Whether voxel `n` is inside and none of its 26 neighbours has a larger signed distance.
@@ -222,10 +219,10 @@ fn walls(mesh: &Mesh, query: &MeshDistance, grid: &Grid, points: &[DVec3]) -> Ve
             [p + normal * h, p - normal * h]
         })
         .collect();
-    let distances = query.nearest_all(&probes);
+    let distances = query.distances(&probes);
     distances
         .chunks(2)
-        .map(|pair| ((h - pair[0].distance.min(pair[1].distance)) / grid.voxel_size).max(0.0))
+        .map(|pair| ((h - pair[0].min(pair[1])) / grid.voxel_size).max(0.0))
         .collect()
 }
 
