@@ -5,7 +5,9 @@
 # `#view=AZ,EL&panel=0` in an 800 x 800 window, against `render --size 800 800 --view AZ EL`;
 # prints the intersection over union of the two silhouettes and the seconds each page took.
 #
-# Usage: scripts/viewer-iou.sh [MESH [RESOLUTION]]   (MODEL=file.json uses that model instead)
+# Usage: scripts/viewer-iou.sh [MESH [RESOLUTION]]   (MODEL=file.json uses that model instead;
+#   IMPLICITIZE_PAGE_TIMEOUT=SECONDS waits longer than 120 s for a page to draw, as SwiftShader
+#   on two cores needs for the bunny's 512 model)
 # Needs what scripts/test.sh sets up: target/release/implicitize (or IMPLICITIZE_BIN), the
 # environment target/venv (or PYTHON) and Debian's chromium and chromedriver.
 set -euo pipefail

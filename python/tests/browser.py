@@ -20,8 +20,9 @@ from selenium.webdriver.chrome.service import Service
 CHROMIUM = os.environ.get("CHROMIUM", shutil.which("chromium") or "/usr/bin/chromium")
 CHROMEDRIVER = os.environ.get("CHROMEDRIVER", shutil.which("chromedriver") or "/usr/bin/chromedriver")
 
-# A page draws within this many seconds (the lattice and the first frame on SwiftShader).
-TIMEOUT_S = 120
+# A page draws within this many seconds (the lattice and the first frame on SwiftShader);
+# IMPLICITIZE_PAGE_TIMEOUT sets another (scripts/viewer-iou.sh on large models).
+TIMEOUT_S = float(os.environ.get("IMPLICITIZE_PAGE_TIMEOUT", "120"))
 
 
 @contextmanager
@@ -46,6 +47,8 @@ def chromium(width: int, height: int):
     driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
     try:
         driver.set_script_timeout(TIMEOUT_S)
+        # The driver's connection must wait as long as the page's script (its default is 120 s).
+        driver.command_executor._client_config.timeout = TIMEOUT_S + 30
         set_inner_size(driver, width, height)
         yield driver
     finally:
