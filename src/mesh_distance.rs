@@ -73,7 +73,7 @@ pub const LEAF: usize = 4;
 /// centroids and indices while sorting, which way each faces, which are slivers, and the nodes, fewer than
 /// `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles each). Not counted: what
 /// the first sign ([`MeshDistance::inside`]) builds: the re-orientation and its tables (those
-/// of reading a mesh, [`crate::memory`]), the lines' hierarchies and the winding number's tree.
+/// of reading a mesh, [`crate::memory`]), the lines' grids and the winding number's tree.
 pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
     + size_of::<(DVec3, u32)>()
     + size_of::<u32>()
