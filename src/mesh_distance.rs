@@ -250,28 +250,29 @@ impl MeshDistance {
     /// only changes which boxes are opened (where two triangles are equally near, either may
     /// be named).
     pub fn nearest_all(&self, points: &[DVec3]) -> Vec<Nearest> {
+        self.search_all(points, |i, found| self.answer(points[i], found))
+    }
+
+    /// The distance of each point to the surface: [`MeshDistance::nearest_all`]'s distances,
+    /// without the closest points.
+    pub fn distances(&self, points: &[DVec3]) -> Vec<f64> {
+        self.search_all(points, |_, (d2, _)| d2.sqrt())
+    }
+
+    /// `answer(i, found)` of each point `i` and what [`MeshDistance::search`] found for it,
+    /// the points searched as [`MeshDistance::nearest_all`] says, each from the answer before.
+    fn search_all<T: Send + Sync + Copy>(
+        &self,
+        points: &[DVec3],
+        answer: impl Fn(usize, (f64, usize)) -> T + Sync + Send,
+    ) -> Vec<T> {
         along_curve(points, |run| {
             let mut start = 0;
             run.iter()
                 .map(|&i| {
                     let found = self.search(points[i], self.seed(points[i], start));
                     start = found.1;
-                    self.answer(points[i], found)
-                })
-                .collect()
-        })
-    }
-
-    /// The distance of each point to the surface: [`MeshDistance::nearest_all`]'s distances,
-    /// without the closest points.
-    pub fn distances(&self, points: &[DVec3]) -> Vec<f64> {
-        along_curve(points, |run| {
-            let mut start = 0;
-            run.iter()
-                .map(|&i| {
-                    let (d2, t) = self.search(points[i], self.seed(points[i], start));
-                    start = t;
-                    d2.sqrt()
+                    answer(i, found)
                 })
                 .collect()
         })
@@ -373,20 +374,11 @@ impl MeshDistance {
     }
 
     /// The distance of each point to the surface, positive inside and negative outside, inside
-    /// as [`MeshDistance::inside`] decides it (see the module doc).
-    /// Each point's distance and side are found together, along one curve.
+    /// as [`MeshDistance::inside`] decides it (see the module doc). Each point's distance and
+    /// side are found together, along one curve.
     pub fn signed(&self, points: &[DVec3]) -> Vec<f64> {
         let sign = Sign::new(self);
-        along_curve(points, |run| {
-            let mut start = 0;
-            run.iter()
-                .map(|&i| {
-                    let (d2, t) = self.search(points[i], self.seed(points[i], start));
-                    start = t;
-                    signed(d2.sqrt(), sign.inside(points[i]))
-                })
-                .collect()
-        })
+        self.search_all(points, |i, (d2, _)| signed(d2.sqrt(), sign.inside(points[i])))
     }
 
     /// Whether each point is inside, as [`MeshDistance::signed`] signs it (see the module doc):
