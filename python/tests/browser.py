@@ -47,8 +47,11 @@ def chromium(width: int, height: int):
     driver = webdriver.Chrome(options=options, service=Service(CHROMEDRIVER))
     try:
         driver.set_script_timeout(TIMEOUT_S)
-        # The driver's connection must wait as long as the page's script (its default is 120 s).
-        driver.command_executor._client_config.timeout = TIMEOUT_S + 30
+        # The driver's connection must wait as long as the page's script (its default is 120 s;
+        # selenium keeps it in its connection's client configuration since 4.26).
+        config = getattr(driver.command_executor, "_client_config", None)
+        if config is not None:
+            config.timeout = TIMEOUT_S + 30
         set_inner_size(driver, width, height)
         yield driver
     finally:
