@@ -36,11 +36,11 @@ const VOLUME_PER_VOXEL: u64 = 10;
 /// the current surface's values, signed distance and flags, and the voxelization's (measured:
 /// 18 on the bunny from 128 to 256).
 const FIT_PER_VOXEL: u64 = 28;
-/// Bytes per voxel of a fit with detail levels, whose iterations run on coarser grids: at its
-/// peak the measure on the full grid holds the goal's signed distance, the model's values and
-/// their distance transform (f32 each) and the inside flags; the goal's densities (freed after
-/// level 0) with its distance transform hold as much at the start (measured: 13.2 on the bunny
-/// at 512 beside its points, 9.8 while making the goal at 1024).
+/// Bytes per voxel of the goal's grid of a fit with detail levels, whose iterations run on
+/// coarser grids: at its peak the measure on that grid holds the goal's signed distance, the
+/// model's values and their distance transform (f32 each) and the inside flags; the goal's
+/// densities (freed after level 0) with its distance transform hold as much at the start
+/// (measured: 13.2 on the bunny at 512 beside its points, 9.8 while making the goal at 1024).
 const LEVELS_PER_VOXEL: u64 = 14;
 /// Bytes per matrix entry of a dense solve: the system's matrix and its factorization.
 const DENSE_PER_ENTRY: u64 = 16;
@@ -169,13 +169,23 @@ impl Estimate {
     }
 
     /// A fit with detail levels of a mesh of `triangles` triangles on a grid of `dims` voxels,
-    /// at `points` surface points of the goal ([`crate::fit::levels::BYTES_PER_POINT`] a
-    /// point); its level 0's iterations, on a grid of a quarter of the resolution or less, fit
-    /// in what the full grid's measure holds.
-    pub fn levels(dims: [usize; 3], triangles: usize, points: usize) -> Estimate {
-        let grid = Estimate::grid(dims, LEVELS_PER_VOXEL, triangles);
+    /// its goal on a grid of `goal_dims` (`dims`, or a coarser grid: see
+    /// [`crate::fit::levels::goal_grid`]), at `points` surface points
+    /// ([`crate::fit::levels::BYTES_PER_POINT`] a point): the larger of the fit on the goal's
+    /// grid (its level 0's iterations, on a grid of a quarter of the goal's resolution or less,
+    /// fit in what the goal's measure holds) and the polygonization of the model on `dims` that
+    /// follows it.
+    pub fn levels(
+        goal_dims: [usize; 3],
+        dims: [usize; 3],
+        triangles: usize,
+        points: usize,
+    ) -> Estimate {
+        let goal = Estimate::grid(goal_dims, LEVELS_PER_VOXEL, triangles);
         let points = (points as u64).saturating_mul(crate::fit::levels::BYTES_PER_POINT);
-        Estimate { bytes: grid.bytes.saturating_add(points), ..grid }
+        let fit = goal.bytes.saturating_add(points);
+        let surface = Estimate::polygonize(dims, false).bytes;
+        Estimate { bytes: fit.max(surface), what: Estimate::grid(dims, 0, 0).what }
     }
 
     /// A picture of `width` x `height` pixels.

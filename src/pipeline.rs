@@ -54,7 +54,7 @@ use crate::sample::Samples;
 use crate::shape::Shape;
 use crate::surface_distance;
 use crate::voxelize::shell::{self, Shell};
-use crate::voxelize::{self, Inside, VoxelizeOptions};
+use crate::voxelize::{self, Inside, VoxelizeOptions, Voxelized};
 
 /// How the constraints of a fit are made.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -296,7 +296,9 @@ pub struct FitOutputs {
     pub report: Option<PathBuf>,
     /// The model's zero set polygonized on the fit's grid (OBJ, PLY, STL or OFF).
     pub surface: Option<PathBuf>,
-    /// The goal's signed distance volume (NumPy, with its grid in a `.json` beside it).
+    /// The goal's signed distance volume (NumPy, with its grid in a `.json` beside it): on the
+    /// fit's grid, or on the coarser grid of the goal of a fit with detail levels on a large
+    /// grid ([`fit::levels::goal_grid`]).
     pub sdf: Option<PathBuf>,
 }
 
@@ -382,6 +384,10 @@ pub struct Prepared<'a> {
     /// The mesh's name in errors.
     source: String,
     bounds: Aabb,
+    /// The grid asked for, whose voxels the fit's errors are stated in.
+    grid: Grid,
+    /// The goal: on `grid`, or, for a fit with detail levels on a large grid, on a coarser one
+    /// ([`fit::levels::goal_grid`]).
     goal: Goal,
     inside: Inside,
     /// The mesh's exact distance query.
@@ -658,9 +664,13 @@ impl<'a> Prepared<'a> {
         // A shell's surface is the mesh's two faces.
         let faces = if options.shell.is_some() { 2.0 } else { 1.0 };
         let area = faces * mesh_area(mesh);
-        let grid = checked_grid(&bounds, options.resolution, limit, |g| {
+        let goal_grid = |g: &Grid| match options.shell {
+            None if options.has_levels(g) => fit::levels::goal_grid(g, &options.fit),
+            _ => *g,
+        };
+        let estimate = |g: &Grid, goal: &Grid| {
             let fit = if options.has_levels(g) {
-                Estimate::levels(g.dims, triangles, surface_points(area, g))
+                Estimate::levels(goal.dims, g.dims, triangles, surface_points(area, g))
             } else {
                 Estimate::fit(g.dims, triangles)
             };
@@ -669,14 +679,30 @@ impl<'a> Prepared<'a> {
             } else {
                 fit
             }
-        })
-        .map_err(|e| e.in_context(source))?;
-        let voxelized =
-            voxelize::voxelize(mesh, &grid, &options.voxelize).map_err(|e| e.in_context(source))?;
-        let sd = distance::signed_distance(&distance::inside(&voxelized.density));
+        };
+        let grid = checked_grid(&bounds, options.resolution, limit, |g| estimate(g, &goal_grid(g)))
+            .map_err(|e| e.in_context(source))?;
         let query = Arc::new(MeshDistance::new(mesh).map_err(|e| e.in_context(source))?);
-        let thickness = Thickness::measure(&sd, mesh, &query, options.fit.seed);
-        let longest_axis = grid.dims.into_iter().max().unwrap_or(0);
+        let volumes = |goal_grid: &Grid| -> Result<(Voxelized, Volume<f32>, Thickness)> {
+            let voxelized = voxelize::voxelize(mesh, goal_grid, &options.voxelize)
+                .map_err(|e| e.in_context(source))?;
+            let sd = distance::signed_distance(&distance::inside(&voxelized.density));
+            let thickness = Thickness::measure(&sd, mesh, &query, options.fit.seed);
+            Ok((voxelized, sd, thickness))
+        };
+        let mut goal_grid = goal_grid(&grid);
+        let (mut voxelized, mut sd, mut thickness) = volumes(&goal_grid)?;
+        let longest = |g: &Grid| g.dims.into_iter().max().unwrap_or(0);
+        if goal_grid != grid
+            && (!thickness.is_held() || thickness.warning(longest(&goal_grid)).is_some())
+        {
+            // Walls the coarser goal loses or thins are voxelized on the grid asked for.
+            drop((voxelized, sd));
+            estimate(&grid, &grid).check(limit, || None).map_err(|e| e.in_context(source))?;
+            goal_grid = grid;
+            (voxelized, sd, thickness) = volumes(&goal_grid)?;
+        }
+        let longest_axis = longest(&goal_grid);
         let goal = match options.shell {
             Some(shell) => {
                 drop((sd, voxelized.density));
@@ -690,7 +716,9 @@ impl<'a> Prepared<'a> {
                 let mut goal =
                     Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
                 if options.has_levels(&grid) {
-                    let n = goal.surface().len();
+                    // As many points on the mesh as the grid asked for has surface voxels.
+                    let scale = goal_grid.voxel_size / grid.voxel_size;
+                    let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
                     if let Some(points) = surface_distance::sample(mesh, n, options.fit.seed) {
                         goal = goal.with_mesh_points(points);
                     }
@@ -709,6 +737,7 @@ impl<'a> Prepared<'a> {
             mesh,
             source,
             bounds,
+            grid,
             goal,
             inside,
             query,
@@ -731,12 +760,14 @@ impl<'a> Prepared<'a> {
 
     /// What a user should know before the fit (see [`warnings`]).
     pub fn warnings(&self) -> Vec<String> {
-        warnings(&self.inside, Some(&self.thickness), self.options.shell, self.grid().dims)
+        warnings(&self.inside, Some(&self.thickness), self.options.shell, self.goal.grid().dims)
     }
 
-    /// The grid the mesh was voxelized on.
+    /// The grid asked for, whose voxels the fit's errors are stated in: the grid the mesh was
+    /// voxelized on, unless a fit with detail levels voxelizes its goal on a coarser one
+    /// ([`fit::levels::goal_grid`]; [`Prepared::goal`] has its grid).
     pub fn grid(&self) -> &Grid {
-        self.goal.grid()
+        &self.grid
     }
 
     /// The mesh's bounds, mesh units.
@@ -801,11 +832,12 @@ impl<'a> Prepared<'a> {
                 let fitted = fit::levels::fit_shell(&self.goal, &mid, half, &options)?;
                 (fitted.shape, fitted.report)
             }
-            (Method::Iterative, _) if fit::levels::applies(self.goal.grid(), &options) => {
+            (Method::Iterative, _) if fit::levels::applies(&self.grid, &options) => {
                 self.levels_estimate().check(self.limit, || None)?;
                 let mut on_iteration = on_iteration;
                 let fitted =
-                    fit::levels::fit(&mut self.goal, &options, &mut on_iteration).map_err(thin)?;
+                    fit::levels::fit(&mut self.goal, &self.grid, &options, &mut on_iteration)
+                        .map_err(thin)?;
                 (fitted.shape, fitted.report)
             }
             (Method::Iterative, _) => {
@@ -826,7 +858,7 @@ impl<'a> Prepared<'a> {
         report.timings_s.total += self.goal_seconds;
         report.winding_near_half = Some(self.inside.winding_near_half);
         report.thickness = Some(self.thickness);
-        let grid = *self.goal.grid();
+        let grid = self.grid;
         // The goal's volumes are freed before the model is polygonized and measured.
         drop(self.goal);
         let model = Model::from_shape(shape, self.bounds, Some(grid));
@@ -860,8 +892,9 @@ impl<'a> Prepared<'a> {
     /// The memory a fit with detail levels holds at the goal's surface points (see
     /// [`Estimate::levels`]; the check before the goal estimated them from the mesh's area).
     fn levels_estimate(&self) -> Estimate {
-        let dims = self.goal.grid().dims;
-        Estimate::levels(dims, self.mesh.triangles.len(), self.goal.surface().len())
+        let points = self.goal.mesh_points().map_or(0, <[_]>::len).max(self.goal.surface().len());
+        let goal_dims = self.goal.grid().dims;
+        Estimate::levels(goal_dims, self.grid.dims, self.mesh.triangles.len(), points)
     }
 
     /// The most constraints, up to `requested`, whose solve fits in the memory limit beside the

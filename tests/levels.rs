@@ -87,6 +87,31 @@ fn levels_correct_a_coarse_level_0_below_the_target() {
     assert!(fitted().report.max_error_voxels <= 1.5, "E {}", fitted().report.max_error_voxels);
 }
 
+/// Above `max_goal_axis` the goal is voxelized at half the resolution, its voxels exactly two
+/// of the grid's, and the levels reach the grid asked for through points on the mesh: the
+/// report and the model speak of the 128 grid, whose surface points the mesh's points number,
+/// and the polygonized surface is within the target plus a voxel of the torus both ways.
+#[test]
+fn a_goal_at_half_the_resolution_still_reaches_the_target_on_the_grid() {
+    let mut options = options(5);
+    options.fit.levels.max_goal_axis = 64;
+    let prepared = pipeline::Prepared::new(torus_mesh(), "the torus", &options).unwrap();
+    let (grid, goal) = (*prepared.grid(), *prepared.goal().grid());
+    assert_eq!(grid.dims.iter().max(), Some(&128));
+    assert_eq!(goal.voxel_size, 2.0 * grid.voxel_size);
+    assert_eq!(goal.dims, grid.dims.map(|n| (n - 1).div_ceil(2) + 3));
+    let on_mesh = prepared.goal().mesh_points().unwrap().len() as f64;
+    let on_goal = prepared.goal().surface().len() as f64;
+    assert!(on_mesh > 3.0 * on_goal, "{on_mesh} points on the mesh, {on_goal} on the goal");
+    let fitted = prepared.fit(|_, _| {}).unwrap();
+    assert_eq!(fitted.report.dims, grid.dims);
+    assert_eq!(fitted.model.grid(), Some(&grid));
+    let report = fitted.report.levels.as_ref().expect("a report of the levels");
+    assert!(report.levels.last().unwrap().max_error_voxels <= f64::from(TARGET), "{report:?}");
+    let (there, back) = distances(&fitted.model);
+    assert!(there <= 2.0 && back <= 2.0, "with levels: {there} {back}; {report:?}");
+}
+
 /// Values and gradients read only the centres whose supports cover the point, and equal the
 /// sums over every centre up to rounding.
 #[test]

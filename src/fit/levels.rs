@@ -32,6 +32,13 @@
 //! Level 0 fits on the coarsest goal of the pyramid (512 voxels: 131), where each iteration costs
 //! a sixty-fourth of one on the full grid; `first_radius` (4 of its voxels, 16 of a 512 grid) is
 //! about twice the spacing of its constraints, the scale of what it can miss.
+//!
+//! Above [`LevelOptions::max_goal_axis`] (512 voxels) the goal itself is voxelized at half the
+//! resolution ([`goal_grid`]; 1024 voxels: 515), and the pyramid and level 0 below it: the goal's
+//! volumes and the measure's, 13 bytes a voxel, are what a grid of 1024 cannot hold, and the
+//! levels need of the goal only its inside, its band and its E. They reach the grid asked for
+//! through the mesh's points, as many as that grid has surface voxels; the residuals, the
+//! target, the supports and the report are in voxels of that grid.
 
 use std::time::Instant;
 
@@ -59,6 +66,11 @@ pub struct LevelOptions {
     /// level 0 on the pyramid's coarsest goal, the levels on the full grid. Smaller grids are
     /// fitted as the paper fits them, so the defaults (200 voxels) are unchanged.
     pub min_axis: usize,
+    /// The goal of a fit with levels has at most this many voxels along its longest axis
+    /// (see [`goal_grid`]): on a longer grid it is voxelized at half the resolution (a quarter
+    /// from four times as long), and the levels reach the grid asked for through points on the
+    /// mesh. `usize::MAX` voxelizes every goal on the grid asked for.
+    pub max_goal_axis: usize,
     /// Level 0's target E, in voxels of its own grid (the fit's default target).
     pub base_target_error: f32,
     /// The first level's support radius, in voxels of level 0's grid.
@@ -76,6 +88,7 @@ impl Default for LevelOptions {
         LevelOptions {
             max_levels: 5,
             min_axis: 384,
+            max_goal_axis: 512,
             base_target_error: 2.0,
             first_radius: 4.0,
             min_radius: 1.5,
@@ -183,22 +196,26 @@ pub fn applies(grid: &Grid, options: &FitOptions) -> bool {
 /// level 0 wide).
 pub const BYTES_PER_POINT: u64 = 1050;
 
-/// Level 0 on the pyramid's coarsest goal, then detail levels on `goal` (see the module doc).
-/// `on_iteration` sees level 0's iterations, their errors in voxels of `goal`'s grid. The goal's
-/// densities are freed once level 0 is fitted (`Goal::free_densities`).
+/// Level 0 on the pyramid's coarsest goal, then detail levels on `grid`, the grid asked for,
+/// whose voxels the errors are stated in; `goal` is on `grid` or on a coarser grid of
+/// [`goal_grid`] (see the module doc). `on_iteration` sees level 0's iterations, their errors in
+/// voxels of `grid`. The goal's densities are freed once level 0 is fitted
+/// (`Goal::free_densities`).
 ///
 /// # Errors
 /// What level 0's solves report.
 pub fn fit(
     goal: &mut Goal,
+    grid: &Grid,
     options: &FitOptions,
     on_iteration: &mut impl FnMut(&IterationReport, &Implicit),
 ) -> Result<LevelledFit> {
     let started = Instant::now();
     let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
-    let (stage, base_grid) = fit_base(goal, options, &mut log, on_iteration)?;
+    let goal_level = level_of(goal.grid(), grid);
+    let (stage, base_grid) = fit_base(goal, goal_level, options, &mut log, on_iteration)?;
     goal.free_densities();
-    let voxel = goal.grid().voxel_size;
+    let voxel = grid.voxel_size;
     let base_e = f64::from(stage.metrics.max_error_subvoxel) * base_grid.1 / voxel;
     let first_radius = options.levels.first_radius * base_grid.1;
     let band = (base_e + 2.0).clamp(3.0, first_radius / voxel);
@@ -212,7 +229,52 @@ pub fn fit(
     };
     let interior = points.len();
     let data = Data { points, targets, first_radius, band, interior };
-    add_levels(goal, base, data, options, log, started)
+    add_levels(goal, grid, base, data, options, log, started)
+}
+
+/// The grid of the goal of a fit on `grid` ([`LevelOptions::max_goal_axis`]): `grid` itself up
+/// to that length along its longest axis or where the fit has no levels; beyond it, a grid of
+/// half the resolution over the same box, or of a quarter from twice that length.
+///
+/// Volumes grow as the cube of the resolution and the surface's points as its square: at 1024
+/// voxels the goal's volumes and the measure's (13 bytes a voxel) are what a fit cannot hold,
+/// while the levels fit points sampled on the mesh, as many as `grid` has surface voxels, and
+/// reach its detail through them. The coarser goal remains the judge of the inside (which of
+/// the mesh's points count, which side the band's voxels must have) and of E. Its voxels are
+/// exactly 2 (or 4) of `grid`'s, centred on the same box, with [`GOAL_PADDING`] voxels more on
+/// each side.
+pub fn goal_grid(grid: &Grid, options: &FitOptions) -> Grid {
+    let longest = grid.dims.iter().copied().max().unwrap_or(0);
+    let max = options.levels.max_goal_axis;
+    if !applies(grid, options) || longest <= max {
+        return *grid;
+    }
+    let factor = if longest <= max.saturating_mul(2) { 2 } else { 4 };
+    let voxel_size = grid.voxel_size * factor as f64;
+    let dims = grid.dims.map(|n| (n - 1).div_ceil(factor) + 1 + 2 * GOAL_PADDING);
+    let span = |dims: [usize; 3], h: f64| {
+        DVec3::new(dims[0] as f64 - 1.0, dims[1] as f64 - 1.0, dims[2] as f64 - 1.0) * h
+    };
+    let centre = DVec3::from_array(grid.origin) + span(grid.dims, grid.voxel_size) * 0.5;
+    let origin = centre - span(dims, voxel_size) * 0.5;
+    Grid { dims, origin: origin.to_array(), voxel_size }
+}
+
+/// Voxels of a coarser goal's grid added on every side ([`goal_grid`]), so that it keeps the
+/// margin of the grid asked for.
+pub const GOAL_PADDING: usize = 1;
+
+/// Where a goal on `goal_grid` stands in the pyramid of a fit on `grid`: the same grid, half its
+/// resolution or a quarter (by the ratio of their voxels).
+fn level_of(goal_grid: &Grid, grid: &Grid) -> GridLevel {
+    let ratio = goal_grid.voxel_size / grid.voxel_size;
+    if ratio > 3.0 {
+        GridLevel::Quarter
+    } else if ratio > 1.5 {
+        GridLevel::Half
+    } else {
+        GridLevel::Full
+    }
 }
 
 /// A shell's fit ([`crate::voxelize::shell`]): detail levels over a constant level 0. The
@@ -252,7 +314,7 @@ pub fn fit_shell(
         },
     };
     let data = Data { points, targets, first_radius, band: first_radius / voxel, interior };
-    add_levels(goal, base, data, options, log, started)
+    add_levels(goal, &grid, base, data, options, log, started)
 }
 
 /// The constant `value` on `grid`, as a thin-plate function: the interpolant of the same value
@@ -292,10 +354,11 @@ struct Data {
 }
 
 /// Detail levels over `base`, fitted to `data` and the band's wrong sides, halving the support
-/// until the residual is within the target (see the module doc); then the measure on the full
-/// grid and the report.
+/// until the residual is within the target in voxels of `grid` (see the module doc); then the
+/// measure on the goal's grid and the report, in voxels of `grid`.
 fn add_levels(
     goal: &Goal,
+    grid: &Grid,
     base: Base,
     data: Data,
     options: &FitOptions,
@@ -303,8 +366,9 @@ fn add_levels(
     started: Instant,
 ) -> Result<LevelledFit> {
     let clock = Instant::now();
-    let grid = *goal.grid();
     let voxel = grid.voxel_size;
+    // The goal's voxels in voxels of `grid`.
+    let goal_scale = goal.grid().voxel_size / voxel;
     let Data { points, targets, first_radius, band, interior } = data;
     let mut residual: Vec<f64> = base
         .implicit
@@ -317,7 +381,7 @@ fn add_levels(
     let outside = |residual: &[f64]| {
         residual[interior..].iter().zip(&targets[interior..]).any(|(r, t)| r >= t)
     };
-    let mut off = OffSurface::new(goal, &base.implicit, band);
+    let mut off = OffSurface::new(goal, &base.implicit, band / goal_scale);
     let (base_max, base_p999) = error_figures(&residual);
     let mut levels = Vec::new();
     let mut reports = Vec::new();
@@ -334,7 +398,7 @@ fn add_levels(
         let mut candidates = points.clone();
         candidates.extend(wrong.iter().map(|w| w.0));
         let mut errors = residual.clone();
-        errors.extend(wrong.iter().map(|w| w.1));
+        errors.extend(wrong.iter().map(|w| w.1 * goal_scale));
         let chosen = choose_centres(&candidates, &errors, radius, target, &options.levels);
         if chosen.is_empty() {
             break;
@@ -370,7 +434,7 @@ fn add_levels(
         Shape::Levels(MultiScale::new("the fit", base_implicit.clone(), levels)?)
     };
     let clock = Instant::now();
-    let metrics = super::measure_field(goal, &shape, options);
+    let metrics = super::measure_field(goal, &shape, options).in_smaller_voxels(goal_scale as f32);
     log.totals.implicit_evaluation += clock.elapsed().as_secs_f64();
     log.totals.total = started.elapsed().as_secs_f64();
     let levels_report = LevelsReport {
@@ -385,7 +449,7 @@ fn add_levels(
         points: data_points,
         levels: reports,
     };
-    let mut report = super::report_of(&grid, &metrics, base.best_iteration, base.termination, log);
+    let mut report = super::report_of(grid, &metrics, base.best_iteration, base.termination, log);
     report.levels = Some(levels_report);
     Ok(LevelledFit { shape, report })
 }
@@ -409,15 +473,17 @@ fn data_points(goal: &Goal) -> Vec<DVec3> {
 
 /// Level 0: the loop of paper 5 on the coarsest goal of `goal`'s pyramid, with its own target
 /// ([`LevelOptions::base_target_error`]); the stage, and that goal's dims and voxel size.
+/// `goal` stands at `goal_level` of the fit's pyramid.
 fn fit_base(
     goal: &Goal,
+    goal_level: GridLevel,
     options: &FitOptions,
     log: &mut Log,
     on_iteration: &mut impl FnMut(&IterationReport, &Implicit),
 ) -> Result<(super::Stage, ([usize; 3], f64))> {
     let mut current = coarse::CoarseStart::of(goal, options).expect("`applies` checked it");
     let mut level_options = current.options(options);
-    let mut level = GridLevel::Half;
+    let mut level = goal_level.coarser().unwrap_or(GridLevel::Eighth);
     while let (Some(next), Some(coarser)) =
         (coarse::CoarseStart::of(&current.goal, &level_options), level.coarser())
     {

@@ -25,7 +25,8 @@ pub struct BatchCommand {
     /// Meshes converted at once [default: the number of CPUs].
     #[arg(long)]
     pub jobs: Option<usize>,
-    /// Also write each mesh's signed distance volume (as `implicitize sdf`) on the fit's grid.
+    /// Also write each mesh's signed distance volume (as `implicitize sdf`) on the fit's grid
+    /// (above 512 voxels with detail levels, on its goal's coarser grid, named in its `.json`).
     #[arg(long)]
     pub sdf: bool,
     /// Also write N samples of each mesh's exact signed distance (as `implicitize sample` with
