@@ -112,6 +112,22 @@ fn a_goal_at_half_the_resolution_still_reaches_the_target_on_the_grid() {
     assert!(there <= 2.0 && back <= 2.0, "with levels: {there} {back}; {report:?}");
 }
 
+/// A solid whose walls the coarser goal would not hold (a torus whose tube is 6.6 voxels of the
+/// 128 grid across, 3.3 of the half grid, where the thickness measure refuses it) is voxelized
+/// on the grid asked for, as below `max_goal_axis`, and warns of nothing there.
+#[test]
+fn walls_the_coarser_goal_would_thin_are_voxelized_on_the_grid_asked_for() {
+    let mut options = options(5);
+    options.fit.levels.max_goal_axis = 64;
+    let thin = torus(2.0, 0.12, 96, 24);
+    let prepared = pipeline::Prepared::new(&thin, "the thin torus", &options).unwrap();
+    assert_eq!(prepared.goal().grid(), prepared.grid());
+    assert!(prepared.warnings().is_empty(), "{:?}", prepared.warnings());
+    // Half the tube's width, in voxels of the grid asked for.
+    let depth = prepared.thickness().max_depth;
+    assert!(depth > 2.5 && depth < 4.5, "{depth} voxels deep");
+}
+
 /// Values and gradients read only the centres whose supports cover the point, and equal the
 /// sums over every centre up to rounding.
 #[test]
