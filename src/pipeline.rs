@@ -720,7 +720,8 @@ impl<'a> Prepared<'a> {
                     let scale = goal_grid.voxel_size / grid.voxel_size;
                     let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
                     if let Some(points) = surface_distance::sample(mesh, n, options.fit.seed) {
-                        goal = goal.with_mesh_points(points);
+                        let agreement = fit::MESH_AGREEMENT * scale as f32;
+                        goal = goal.with_mesh_points(points, agreement);
                     }
                 }
                 match options.fit.error_measure {

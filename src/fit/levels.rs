@@ -686,7 +686,7 @@ mod tests {
             .collect();
         let buried = centre + DVec3::new(0.0, 0.0, -3.0);
         on_mesh.push(buried);
-        let goal = Goal::ball(26, centre, radius).with_mesh_points(on_mesh.clone());
+        let goal = Goal::ball(26, centre, radius).with_mesh_points(on_mesh.clone(), 1.0);
         let kept = goal.mesh_points().unwrap();
         assert_eq!(kept.len(), 2000, "the buried point is left out");
         assert!(!kept.contains(&buried));

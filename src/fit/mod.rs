@@ -41,6 +41,7 @@ use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions, SubV
 use crate::rbf::{self, Implicit, Kernel};
 
 pub use goal::Goal;
+pub(crate) use goal::MESH_AGREEMENT;
 pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport};
 pub use report::{ConstraintCounts, FitReport, GridLevel, IterationReport, Termination, Timings};
 pub use thickness::Thickness;
