@@ -242,7 +242,9 @@ def fit(
     ``max_constraints`` constraints (default {max_constraints}, {naive_max_constraints} for the
     naive method) and ``max_iterations`` iterations (default {max_iterations}); on grids of
     {levels_min_axis} voxels or more, and for every ``shell``, at most ``levels`` detail levels
-    (default {levels}; 0 fits one function as the paper does); ``progress`` prints one line per
+    (default {levels}; 0 fits one function as the paper does; above {levels_max_goal_axis}
+    voxels the goal is voxelized at half the resolution and the levels reach the grid through
+    points on the mesh); ``progress`` prints one line per
     iteration on stderr;
     ``shell`` fits the surface thickened to that thickness in all (a number of voxels, or a
     string such as ``"0.01u"`` in mesh units), for open shells and walls too thin for the grid;

@@ -52,6 +52,7 @@ fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     defaults.set_item("max_iterations", fit.max_iterations)?;
     defaults.set_item("levels", fit.levels.max_levels)?;
     defaults.set_item("levels_min_axis", fit.levels.min_axis)?;
+    defaults.set_item("levels_max_goal_axis", fit.levels.max_goal_axis)?;
     defaults.set_item("max_constraints", MAX_CONSTRAINTS)?;
     defaults.set_item("naive_max_constraints", naive::DEFAULT_CONSTRAINTS)?;
     defaults.set_item("method", "iterative")?;
