@@ -858,7 +858,8 @@ impl<'a> Prepared<'a> {
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
         report.winding_near_half = Some(self.inside.winding_near_half);
-        report.thickness = Some(self.thickness);
+        let goal_scale = self.goal.grid().voxel_size / self.grid.voxel_size;
+        report.thickness = Some(self.thickness.in_smaller_voxels(goal_scale));
         let grid = self.grid;
         // The goal's volumes are freed before the model is polygonized and measured.
         drop(self.goal);

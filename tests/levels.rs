@@ -89,8 +89,8 @@ fn levels_correct_a_coarse_level_0_below_the_target() {
 
 /// Above `max_goal_axis` the goal is voxelized at half the resolution, its voxels exactly two
 /// of the grid's, and the levels reach the grid asked for through points on the mesh: the
-/// report and the model speak of the 128 grid, whose surface points the mesh's points number,
-/// and the polygonized surface is within the target plus a voxel of the torus both ways.
+/// report and the model speak of the 128 grid (its thickness too), whose surface points the
+/// mesh's points number, and the polygonized surface is within the target plus a voxel of the torus both ways.
 #[test]
 fn a_goal_at_half_the_resolution_still_reaches_the_target_on_the_grid() {
     let mut options = options(5);
@@ -103,8 +103,11 @@ fn a_goal_at_half_the_resolution_still_reaches_the_target_on_the_grid() {
     let on_mesh = prepared.goal().mesh_points().unwrap().len() as f64;
     let on_goal = prepared.goal().surface().len() as f64;
     assert!(on_mesh > 3.0 * on_goal, "{on_mesh} points on the mesh, {on_goal} on the goal");
+    let goal_depth = prepared.thickness().max_depth;
     let fitted = prepared.fit(|_, _| {}).unwrap();
     assert_eq!(fitted.report.dims, grid.dims);
+    // The thickness measured on the goal, reported in voxels of the grid.
+    assert_eq!(fitted.report.thickness.unwrap().max_depth, 2.0 * goal_depth);
     assert_eq!(fitted.model.grid(), Some(&grid));
     let report = fitted.report.levels.as_ref().expect("a report of the levels");
     assert!(report.levels.last().unwrap().max_error_voxels <= f64::from(TARGET), "{report:?}");

@@ -287,8 +287,9 @@ pub struct FitReport {
     /// is near one half, where the mesh has no trustworthy inside
     /// ([`crate::voxelize::Ambiguity`]); `None` for a goal given as densities.
     pub winding_near_half: Option<f64>,
-    /// How thick the goal's solid is (see [`super::Thickness`]); `None` for a goal given as
-    /// densities.
+    /// How thick the goal's solid is (see [`super::Thickness`]), in voxels of the fit's grid
+    /// (measured on the goal's, which may be coarser: [`super::levels::goal_grid`]); `None` for
+    /// a goal given as densities.
     pub thickness: Option<super::Thickness>,
     /// For a fit of a mesh's surface thickened into a shell (`shell`), its thickness in all,
     /// in voxels; absent otherwise. Its `mesh_distance` then measures the model against the

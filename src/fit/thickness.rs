@@ -106,6 +106,17 @@ impl Thickness {
         Thickness { max_depth, low_depth, thin_surface, thin_wall }
     }
 
+    /// These figures in voxels `scale` times smaller: a goal's on the grid asked for, where
+    /// the goal's voxels are `scale` of that grid's ([`crate::fit::levels::goal_grid`]).
+    pub fn in_smaller_voxels(self, scale: f64) -> Thickness {
+        Thickness {
+            max_depth: self.max_depth * scale,
+            low_depth: self.low_depth * scale,
+            thin_wall: self.thin_wall * scale,
+            ..self
+        }
+    }
+
     /// Whether the grid holds the solid: no more than `MAX_THIN` of its surface thin, or
     /// its thin walls at least `MIN_WALL` voxels thick.
     pub fn is_held(&self) -> bool {
