@@ -27,7 +27,7 @@
 //! spurious pieces of level 0's surface within the band are removed without asking the model
 //! to be a distance function there. As in the paper, centres go where the error is worst and
 //! are pruned by spacing (Ohtake, Belyaev and Seidel 2003 space theirs a fraction of the
-//! support apart). The report's E is then measured on the full grid, both ways, as for any fit.
+//! support apart). The report's E is then measured on the goal's grid, both ways, as for any fit.
 //!
 //! Level 0 fits on the coarsest goal of the pyramid (512 voxels: 131), where each iteration costs
 //! a sixty-fourth of one on the full grid; `first_radius` (4 of its voxels, 16 of a 512 grid) is
@@ -143,7 +143,8 @@ pub struct LevelsReport {
     /// The band, in voxels of the full grid, of the goal's signed distance in which the side
     /// of the model is checked: level 0's sub-voxel E plus 2 voxels.
     pub band_voxels: f64,
-    /// The multi-scale model's sub-voxel E against the goal, both ways, on the full grid.
+    /// The multi-scale model's sub-voxel E against the goal, both ways, measured on the goal's
+    /// grid, in voxels of the full grid.
     pub max_error_subvoxel_voxels: f32,
     /// Its RMS sub-voxel error.
     pub rms_error_subvoxel_voxels: f32,
@@ -173,7 +174,7 @@ impl LevelsReport {
 pub struct LevelledFit {
     /// [`Shape::Levels`], or [`Shape::Rbf`] when level 0 alone met the target.
     pub shape: Shape,
-    /// The fit's report, its E measured on the full grid; `levels` is set.
+    /// The fit's report, its E measured on the goal's grid; `levels` is set.
     pub report: FitReport,
 }
 
@@ -424,7 +425,7 @@ fn add_levels(
         levels.push(level);
     }
     log.totals.misc += clock.elapsed().as_secs_f64();
-    // The measure below evaluates the model over the full grid: the levels' data goes first.
+    // The measure below evaluates the model over the goal's grid: the levels' data goes first.
     let data_points = points.len();
     drop((off, points, residual, targets));
     let base_implicit = base.implicit;
