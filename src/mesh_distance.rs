@@ -6,9 +6,10 @@
 //! [`LEAF`] triangles: each node split across the longest axis of its triangles' centroids
 //! where the surface area heuristic finds it cheapest (the children's box areas weighted by
 //! their triangles, over 16 bins), which makes tighter boxes than the median and so
-//! fewer nodes and triangles a query must open. It is built without recursion, and no split
-//! leaves less than a quarter of a node's triangles on one side, so a mesh of millions of
-//! triangles neither overflows a stack nor makes a deep tree.
+//! fewer nodes and triangles a query must open. The two subtrees of a node of many triangles
+//! are built in parallel, each small subtree from a work list; no split leaves less than a
+//! quarter of a node's triangles on one side, so a mesh of millions of triangles neither
+//! overflows a stack (the parallel recursion is as deep as the tree) nor makes a deep tree.
 //!
 //! # What it guarantees
 //! * **Exact:** [`MeshDistance::nearest`] visits every node whose box could hold a closer point
@@ -98,7 +99,7 @@ pub struct Nearest {
 /// is stored in f32, rounded outward so that it still holds every triangle under it: the
 /// distance to it stays a lower bound of the distance to them, and a node takes 32 bytes,
 /// two to a cache line.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Node {
     min: Vec3,
     max: Vec3,
@@ -200,8 +201,7 @@ impl MeshDistance {
     /// The hierarchy over `triangles` (at least one), with the triangles in its order;
     /// `centre`: the mean of the mesh's vertices.
     fn build(triangles: Vec<[DVec3; 3]>, centre: DVec3) -> MeshDistance {
-        let centroid = |&[a, b, c]: &[DVec3; 3]| (a + b + c) / 3.0;
-        let (nodes, indices) = hierarchy(&triangles, centroid, area, LEAF);
+        let (nodes, indices) = hierarchy(&triangles, LEAF);
         let triangles: Vec<_> = indices.iter().map(|&t| triangles[t as usize]).collect();
         let slivers = triangles.iter().map(is_sliver).collect();
         MeshDistance { nodes, triangles, indices, slivers, centre, flipped: OnceLock::new() }
@@ -427,56 +427,117 @@ fn area(extent: DVec3) -> f64 {
     extent.x * extent.y + extent.y * extent.z + extent.z * extent.x
 }
 
-/// A bounding volume hierarchy over `triangles` (at least one), built from a work list: each
-/// node split across the longest axis of its triangles' `key` points, at the boundary between
-/// [`BINS`] equal bins of that axis where the children's boxes' `measure` (of their sides)
-/// times their triangles sums least (the surface area heuristic), among the boundaries that
-/// leave at least [`SIDE`] of the triangles on each side, or else at the median; leaves of at most `leaf` triangles. The nodes, and
-/// the triangles' indices in the hierarchy's order (a leaf's `first` and `count` are a range
-/// of it).
-fn hierarchy(
-    triangles: &[[DVec3; 3]],
-    key: impl Fn(&[DVec3; 3]) -> DVec3,
-    measure: impl Fn(DVec3) -> f64,
-    leaf: usize,
-) -> (Vec<Node>, Vec<u32>) {
-    let mut order: Vec<(DVec3, u32)> = triangles.iter().map(key).zip(0..).collect();
-    let mut nodes = Vec::with_capacity(4 * triangles.len() / leaf + 1);
-    nodes.push(Node::new(DVec3::ZERO, DVec3::ZERO));
-    // (node, range of `order`) still to fill in.
-    let mut work = vec![(0usize, 0usize, order.len())];
-    while let Some((n, start, end)) = work.pop() {
-        let part = &mut order[start..end];
-        let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        let (mut low, mut high) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        for &(centroid, t) in part.iter() {
-            let (a, b) = corner_box(&triangles[t as usize]);
-            (min, max) = (min.min(a), max.max(b));
-            (low, high) = (low.min(centroid), high.max(centroid));
-        }
-        let node = &mut nodes[n];
-        *node = Node::new(min, max);
-        if part.len() <= leaf {
-            (node.first, node.count) = (start as u32, part.len() as u32);
-            continue;
-        }
-        let axis = (high - low).max_position();
-        let middle = Bins::split(part, triangles, axis, (low[axis], high[axis]), &measure)
-            .unwrap_or_else(|| {
-                let middle = part.len() / 2;
-                part.select_nth_unstable_by(middle, |a, b| {
-                    a.0[axis].total_cmp(&b.0[axis]).then(a.1.cmp(&b.1))
-                });
-                middle
-            });
-        let child = nodes.len();
-        (nodes[n].first, nodes[n].count) = (child as u32, 0);
-        let blank = Node::new(min, max);
-        nodes.extend([blank, blank]);
-        work.push((child, start, start + middle));
-        work.push((child + 1, start + middle, end));
+/// A triangle as [`hierarchy`] sorts it: its centroid (the key its splits compare), the box of
+/// its corners, and its index; kept together so that a node's pass reads them in order.
+#[derive(Debug, Clone, Copy)]
+struct Item {
+    centroid: DVec3,
+    min: DVec3,
+    max: DVec3,
+    t: u32,
+}
+
+/// Triangles from which a node's two subtrees are built in parallel.
+const PARALLEL: usize = 1 << 14;
+
+/// A bounding volume hierarchy over `triangles` (at least one): each node split across the
+/// longest axis of its triangles' centroids, at the boundary between [`BINS`] equal bins of
+/// that axis where the children's boxes' [`area`] times their triangles sums least (the
+/// surface area heuristic), among the boundaries that leave at least [`SIDE`] of the triangles
+/// on each side, or else at the median; leaves of at most `leaf` triangles. The subtrees of
+/// nodes of at least [`PARALLEL`] triangles are built in parallel; the hierarchy is the same
+/// whatever the number of threads. The nodes (the root first, an inner node's children
+/// side by side), and the triangles' indices in the hierarchy's order (a leaf's `first` and
+/// `count` are a range of it).
+fn hierarchy(triangles: &[[DVec3; 3]], leaf: usize) -> (Vec<Node>, Vec<u32>) {
+    let mut items: Vec<Item> = (0..triangles.len() as u32)
+        .into_par_iter()
+        .map(|t| {
+            let corners = &triangles[t as usize];
+            let (min, max) = corner_box(corners);
+            let centroid = (corners[0] + corners[1] + corners[2]) / 3.0;
+            Item { centroid, min, max, t }
+        })
+        .collect();
+    let nodes = subtree(&mut items, 0, leaf);
+    (nodes, items.iter().map(|item| item.t).collect())
+}
+
+/// The nodes of the hierarchy over `items`, which start at `start` in the hierarchy's order,
+/// its root first: the two halves of a large node built in parallel, then put side by side.
+fn subtree(items: &mut [Item], start: usize, leaf: usize) -> Vec<Node> {
+    if items.len() < PARALLEL {
+        return sequential_subtree(items, start, leaf);
     }
-    (nodes, order.iter().map(|&(_, t)| t).collect())
+    let (root, middle) = split(items, leaf);
+    let middle = middle.expect("a node of PARALLEL triangles is split");
+    let (below, above) = items.split_at_mut(middle);
+    let (left, right) =
+        rayon::join(|| subtree(below, start, leaf), || subtree(above, start + middle, leaf));
+    side_by_side(root, left, right)
+}
+
+/// The hierarchy of `root` over the subtrees `left` and `right` (each its root first): the
+/// root, the two children, then the rest of the left subtree and of the right one, with the
+/// children's indices of inner nodes moved accordingly.
+fn side_by_side(root: Node, left: Vec<Node>, right: Vec<Node>) -> Vec<Node> {
+    // Left's node i (from 1) goes to i + 2, right's to left.len() + 1 + i.
+    let moved = |node: Node, shift: usize| match node.count {
+        0 => Node { first: node.first + shift as u32, ..node },
+        _ => node,
+    };
+    let (l, r) = (2, left.len() + 1);
+    let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
+    nodes.extend([Node { first: 1, count: 0, ..root }, moved(left[0], l), moved(right[0], r)]);
+    nodes.extend(left[1..].iter().map(|&n| moved(n, l)));
+    nodes.extend(right[1..].iter().map(|&n| moved(n, r)));
+    nodes
+}
+
+/// [`subtree`] on one thread, from a work list.
+fn sequential_subtree(items: &mut [Item], start: usize, leaf: usize) -> Vec<Node> {
+    let mut nodes = Vec::with_capacity(4 * items.len() / leaf + 1);
+    nodes.push(Node::new(DVec3::ZERO, DVec3::ZERO));
+    // (node, range of `items`) still to fill in.
+    let mut work = vec![(0usize, 0usize, items.len())];
+    while let Some((n, from, to)) = work.pop() {
+        let (node, middle) = split(&mut items[from..to], leaf);
+        nodes[n] = node;
+        let Some(middle) = middle else {
+            (nodes[n].first, nodes[n].count) = ((start + from) as u32, (to - from) as u32);
+            continue;
+        };
+        let child = nodes.len();
+        nodes[n].first = child as u32;
+        nodes.extend([node, node]);
+        work.push((child, from, from + middle));
+        work.push((child + 1, from + middle, to));
+    }
+    nodes
+}
+
+/// The node over `part` (its box; no children yet) and, unless it is a leaf of at most `leaf`
+/// triangles, `part` reordered so that its first child's triangles come first, and how many.
+fn split(part: &mut [Item], leaf: usize) -> (Node, Option<usize>) {
+    let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let (mut low, mut high) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for item in part.iter() {
+        (min, max) = (min.min(item.min), max.max(item.max));
+        (low, high) = (low.min(item.centroid), high.max(item.centroid));
+    }
+    let node = Node::new(min, max);
+    if part.len() <= leaf {
+        return (node, None);
+    }
+    let axis = (high - low).max_position();
+    let middle = Bins::split(part, axis, (low[axis], high[axis])).unwrap_or_else(|| {
+        let middle = part.len() / 2;
+        part.select_nth_unstable_by(middle, |a, b| {
+            a.centroid[axis].total_cmp(&b.centroid[axis]).then(a.t.cmp(&b.t))
+        });
+        middle
+    });
+    (node, Some(middle))
 }
 
 /// The bins of [`hierarchy`]'s split: each one's box and number of triangles.
@@ -485,16 +546,10 @@ struct Bins {
 }
 
 impl Bins {
-    /// Splits `part` (key points and triangles) across `axis`, whose key points span `range`,
-    /// at the cheapest boundary between bins: the triangles of the bins below it first. The
-    /// number below, or `None` (`part` untouched) when no boundary leaves enough on each side.
-    fn split(
-        part: &mut [(DVec3, u32)],
-        triangles: &[[DVec3; 3]],
-        axis: usize,
-        (low, high): (f64, f64),
-        measure: impl Fn(DVec3) -> f64,
-    ) -> Option<usize> {
+    /// Splits `part` across `axis`, whose centroids span `range`, at the cheapest boundary
+    /// between bins: the triangles of the bins below it first. The number below, or `None`
+    /// (`part` untouched) when no boundary leaves enough on each side.
+    fn split(part: &mut [Item], axis: usize, (low, high): (f64, f64)) -> Option<usize> {
         let width = high - low;
         // Also none for a NaN width.
         if width.partial_cmp(&0.0) != Some(Ordering::Greater) {
@@ -502,15 +557,14 @@ impl Bins {
         }
         let bin = |key: DVec3| (((key[axis] - low) / width * BINS as f64) as usize).min(BINS - 1);
         let mut bins = Bins { boxes: [(DVec3::INFINITY, DVec3::NEG_INFINITY, 0); BINS] };
-        for &(key, t) in part.iter() {
-            let (a, b) = corner_box(&triangles[t as usize]);
-            let slot = &mut bins.boxes[bin(key)];
-            *slot = (slot.0.min(a), slot.1.max(b), slot.2 + 1);
+        for item in part.iter() {
+            let slot = &mut bins.boxes[bin(item.centroid)];
+            *slot = (slot.0.min(item.min), slot.1.max(item.max), slot.2 + 1);
         }
-        let boundary = bins.cheapest(measure)?;
+        let boundary = bins.cheapest()?;
         let mut below = 0;
         for i in 0..part.len() {
-            if bin(part[i].0) < boundary {
+            if bin(part[i].centroid) < boundary {
                 part.swap(i, below);
                 below += 1;
             }
@@ -521,13 +575,13 @@ impl Bins {
     /// The boundary (1 to `BINS - 1`, the first bin above it) whose two sides' measures
     /// times their triangles sum least, among those with at least [`SIDE`] of the triangles on
     /// each side.
-    fn cheapest(&self, measure: impl Fn(DVec3) -> f64) -> Option<usize> {
+    fn cheapest(&self) -> Option<usize> {
         let total: usize = self.boxes.iter().map(|b| b.2).sum();
         let fewest = ((SIDE * total as f64).ceil() as usize).max(1);
         let grow = |acc: (DVec3, DVec3, usize), b: &(DVec3, DVec3, usize)| {
             (acc.0.min(b.0), acc.1.max(b.1), acc.2 + b.2)
         };
-        let cost = |(a, b, n): (DVec3, DVec3, usize)| measure(b - a) * n as f64;
+        let cost = |(a, b, n): (DVec3, DVec3, usize)| area(b - a) * n as f64;
         let empty = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0);
         let mut above = [0.0; BINS];
         let mut counts = [0; BINS];
@@ -977,7 +1031,8 @@ mod tests {
     /// The hierarchy of a skewed mesh (a dense cluster of small triangles and a few large ones
     /// far away, where the heuristic's cheapest split is the most lopsided): every triangle
     /// once, every box holding its triangles, every split leaving at least [`SIDE`] of its
-    /// triangles on each side, and so a depth within [`DEPTH`].
+    /// triangles on each side, and so a depth within [`DEPTH`]; its top split into subtrees
+    /// built in parallel (more than [`PARALLEL`] triangles), the same on one thread.
     #[test]
     fn a_skewed_mesh_makes_a_shallow_hierarchy_whose_boxes_hold_their_triangles() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -991,8 +1046,13 @@ mod tests {
             let a = DVec3::splat(1e3 * f64::from(k + 1));
             triangles.push([a, a + DVec3::X, a + DVec3::Z]);
         }
-        let centroid = |&[a, b, c]: &[DVec3; 3]| (a + b + c) / 3.0;
-        let (nodes, order) = hierarchy(&triangles, centroid, area, LEAF);
+        assert!(triangles.len() > PARALLEL);
+        let (nodes, order) = hierarchy(&triangles, LEAF);
+        let one_thread = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        assert_eq!(
+            one_thread.install(|| hierarchy(&triangles, LEAF)),
+            (nodes.clone(), order.clone())
+        );
         let mut seen = vec![0; triangles.len()];
         // (node, depth, triangles under it)
         let mut work = vec![(0usize, 1usize)];

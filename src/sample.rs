@@ -32,6 +32,8 @@
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rand_distr::weighted::WeightedAliasIndex;
+use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
@@ -125,11 +127,12 @@ pub(crate) fn sample(
     Ok(Samples { points, sdf, near, uniform })
 }
 
-/// A surface to draw points on, uniformly by area: the triangles' corners and their cumulative
-/// areas. Also what a fit's report measures from ([`crate::surface_distance`]).
+/// A surface to draw points on, uniformly by area: the triangles' corners and an alias table
+/// of their areas (Walker's method, [`WeightedAliasIndex`]), which draws a triangle in
+/// constant time.
 pub(crate) struct Surface {
     corners: Vec<[DVec3; 3]>,
-    cumulative: Vec<f64>,
+    triangles: Option<WeightedAliasIndex<f64>>,
 }
 
 impl Surface {
@@ -137,7 +140,7 @@ impl Surface {
     /// needed, and a mesh without area is fine); `source` names the mesh in the error.
     fn new(mesh: &Mesh, near: usize, source: &str) -> Result<Surface> {
         if near == 0 {
-            return Ok(Surface { corners: Vec::new(), cumulative: Vec::new() });
+            return Ok(Surface { corners: Vec::new(), triangles: None });
         }
         Surface::of(mesh).ok_or_else(|| {
             Error::invalid(
@@ -148,31 +151,23 @@ impl Surface {
     }
 
     /// The surface of `mesh`; `None` where its triangles have no area (or a corner's index is
-    /// out of range).
+    /// out of range, or an area is not finite).
     pub(crate) fn of(mesh: &Mesh) -> Option<Surface> {
         let corner = |i: u32| mesh.vertices.get(i as usize).copied();
         let corners: Vec<[DVec3; 3]> = mesh
             .triangles
-            .iter()
+            .par_iter()
             .map(|&[a, b, c]| Some([corner(a)?, corner(b)?, corner(c)?]))
             .collect::<Option<_>>()?;
-        let mut total = 0.0;
-        let cumulative = corners
-            .iter()
-            .map(|&[a, b, c]| {
-                total += (b - a).cross(c - a).length() / 2.0;
-                total
-            })
-            .collect();
-        (total > 0.0 && total.is_finite()).then_some(Surface { corners, cumulative })
+        let areas = corners.par_iter().map(|&[a, b, c]| (b - a).cross(c - a).length() / 2.0);
+        let triangles = WeightedAliasIndex::new(areas.collect()).ok()?;
+        Some(Surface { corners, triangles: Some(triangles) })
     }
 
     /// A point uniform on the surface: a triangle chosen by area, a point uniform on it.
     pub(crate) fn point(&self, rng: &mut ChaCha8Rng) -> DVec3 {
-        let total = *self.cumulative.last().expect("a surface with area has triangles");
-        let r = rng.random::<f64>() * total;
-        let t = self.cumulative.partition_point(|&c| c <= r).min(self.corners.len() - 1);
-        let [a, b, c] = self.corners[t];
+        let triangles = self.triangles.as_ref().expect("a surface with area has triangles");
+        let [a, b, c] = self.corners[triangles.sample(rng)];
         let s = rng.random::<f64>().sqrt();
         let v = rng.random::<f64>();
         a * (1.0 - s) + b * (s * (1.0 - v)) + c * (s * v)
@@ -185,17 +180,9 @@ fn uniform_in(room: &Aabb, rng: &mut ChaCha8Rng) -> DVec3 {
     room.min + (room.max - room.min) * u
 }
 
-/// Three independent standard normal values (Box-Muller).
+/// Three independent standard normal values.
 fn gaussian(rng: &mut ChaCha8Rng) -> DVec3 {
-    let mut pair = || {
-        // In (0, 1], so the logarithm is finite.
-        let radius = (-2.0 * (1.0 - rng.random::<f64>()).ln()).sqrt();
-        let angle = std::f64::consts::TAU * rng.random::<f64>();
-        (radius * angle.cos(), radius * angle.sin())
-    };
-    let (x, y) = pair();
-    let (z, _) = pair();
-    DVec3::new(x, y, z)
+    DVec3::from_array(std::array::from_fn(|_| rng.sample(StandardNormal)))
 }
 
 impl Samples {
