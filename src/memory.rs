@@ -61,7 +61,7 @@ const FOLLOW_PER_VOXEL: u64 = 12;
 /// their values, and the evaluation's tables.
 const POLYGONIZE_BASE: u64 = 96 << 20;
 /// Bytes per triangle of a distance query, beyond reading the mesh: the hierarchy while it is
-/// built ([`crate::mesh_distance::BYTES_PER_TRIANGLE`], 213), for the sign the lines' grids
+/// built ([`crate::mesh_distance::BYTES_PER_TRIANGLE`], 262), for the sign the lines' grids
 /// across the three axes (a copy of the re-oriented corners, 72, and for each axis at most 8
 /// entries a triangle and about one cell, 40: 192 for the three) and the winding number's tree
 /// where the lines disagree (its nodes and reordered corners, about 300). Measured with
