@@ -72,10 +72,10 @@ pub const LEAF: usize = 4;
 /// Bytes per triangle of a mesh that building a [`MeshDistance`] needs at its peak: the
 /// triangles' corners twice (as read from the mesh and in the hierarchy's order), their
 /// centroids, boxes and indices while sorting, which way each faces, which are slivers, and
-/// the nodes, fewer than
-/// `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles each). Not counted: what
-/// the first sign ([`MeshDistance::inside`]) builds: the re-orientation and its tables (those
-/// of reading a mesh, [`crate::memory`]), the lines' grids and the winding number's tree.
+/// the nodes, fewer than `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles
+/// each). Not counted: what the first sign ([`MeshDistance::inside`]) builds: the
+/// re-orientation and its tables (those of reading a mesh, [`crate::memory`]), the lines'
+/// grids and the winding number's tree.
 pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
     + size_of::<Item>()
     + size_of::<u32>()
