@@ -663,10 +663,9 @@ impl Lines {
             let corners = &self.triangles[t as usize];
             let [a, b, c] = *corners;
             // Wholly to one side of the line (a tie is left to the crossing test).
-            let aside = |k: usize, x: f64| {
-                (a[k] < x && b[k] < x && c[k] < x) || (a[k] > x && b[k] > x && c[k] > x)
-            };
-            if aside(u, q[0]) || aside(v, q[1]) {
+            let aside =
+                |k: usize, x: f64| (a[k].max(b[k]).max(c[k]) < x) | (a[k].min(b[k]).min(c[k]) > x);
+            if aside(u, q[0]) | aside(v, q[1]) {
                 continue;
             }
             if let Some((depth, enter)) = Projected::new(corners, axis).cross(q) {
@@ -798,14 +797,38 @@ impl Sign<'_> {
         Sign { query, lines: Lines::new(query), winding: OnceLock::new() }
     }
 
-    /// Whether `p` is inside.
+    /// Whether `p` is inside: outside at once where `p` lies beyond the triangles' box
+    /// ([`Sign::beyond`]), else as [`Sign::decided`] decides.
     fn inside(&self, p: DVec3) -> bool {
+        !self.beyond(p) && self.decided(p)
+    }
+
+    /// The lines' verdict at `p`, or the winding number's where they give none.
+    fn decided(&self, p: DVec3) -> bool {
         self.lines.votes(p).verdict().unwrap_or_else(|| {
             let (winding, frame) = self.winding.get_or_init(|| self.query.winding());
             winding.at(frame.to_grid(p)) >= 0.5
         })
     }
 }
+
+impl Sign<'_> {
+    /// Whether `p` lies beyond the triangles' box along some axis, by more than rounding can
+    /// move a crossing ([`BEYOND`] of the box's longest side): then the lines decide
+    /// outside. The two lines across that axis meet no triangle (two outside votes), and every
+    /// crossing of the line along it lies on one side of `p` (an outside vote, or none where
+    /// the count is odd).
+    fn beyond(&self, p: DVec3) -> bool {
+        let root = &self.query.nodes[0];
+        let (min, max) = (root.min.as_dvec3(), root.max.as_dvec3());
+        let margin = BEYOND * (max - min).max_element();
+        (p - max).max(min - p).max_element() > margin
+    }
+}
+
+/// The margin of [`Sign::beyond`], as a fraction of the box's longest side: far above the
+/// rounding of a crossing's depth (a few units in the last place).
+const BEYOND: f64 = 1e-9;
 
 /// The side, in units of the winding number's frame, of the mesh's box's longest side.
 const WINDING_FRAME: f64 = 1024.0;
@@ -1025,6 +1048,63 @@ mod tests {
                 assert!(inside > 5_000 && inside < 15_000, "{what}");
                 assert!(voted > 19_000, "{what}");
                 assert!(differ <= 10, "{what}");
+            }
+        }
+    }
+
+    /// Beyond the triangles' box the lines and the winding number decide outside, as
+    /// [`Sign::beyond`] argues, even where the winding number passes 1/2: two stacked disks
+    /// facing the same way (open, so not re-oriented into a closed solid), seen from just
+    /// beyond their box along their axis, and the open and flipped triceratops.
+    #[test]
+    fn beyond_the_box_every_point_is_outside() {
+        let disk = |z: f64| -> Vec<[DVec3; 3]> {
+            let ring = |k: usize| {
+                let a = std::f64::consts::TAU * k as f64 / 64.0;
+                DVec3::new(a.cos(), a.sin(), z)
+            };
+            (0..64).map(|k| [DVec3::new(0.0, 0.0, z), ring(k), ring(k + 1)]).collect()
+        };
+        let corners: Vec<[DVec3; 3]> = [disk(0.0), disk(0.01)].concat();
+        let disks = Mesh {
+            vertices: corners.iter().flatten().copied().collect(),
+            triangles: (0..corners.len() as u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect(),
+        };
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj");
+        let (whole, _) = crate::mesh::read(&path).unwrap();
+        let cut = whole.bounds().unwrap().min.y * 0.5 + whole.bounds().unwrap().max.y * 0.5;
+        let mut open = whole.clone();
+        open.triangles.retain(|t| t.iter().all(|&i| open.vertices[i as usize].y > cut));
+        let mut flipped = whole;
+        for t in flipped.triangles.iter_mut().step_by(3) {
+            t.swap(1, 2);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for (name, mesh) in [("disks", disks), ("open", open), ("flipped", flipped)] {
+            let query = MeshDistance::new(&mesh).unwrap();
+            let sign = Sign::new(&query);
+            let (winding, frame) = query.winding();
+            let bounds = mesh.bounds().unwrap();
+            let size = bounds.size();
+            let mut beyond = 0;
+            let mut wound = 0;
+            for _ in 0..20_000 {
+                // Uniform in the box grown by a tenth, or just beyond one of its faces.
+                let u = DVec3::new(rng.random(), rng.random(), rng.random());
+                let mut p = bounds.min - size * 0.1 + size * 1.2 * u;
+                if rng.random::<bool>() {
+                    let axis = rng.random_range(0..3);
+                    p[axis] = bounds.min[axis] - size[axis] * 1e-3 * rng.random::<f64>();
+                }
+                if sign.beyond(p) {
+                    beyond += 1;
+                    wound += usize::from(winding.at(frame.to_grid(p)) >= 0.5);
+                    assert!(!sign.decided(p), "{name}: {p} beyond the box decided inside");
+                }
+            }
+            assert!(beyond > 10_000, "{name}: {beyond} points beyond");
+            if name == "disks" {
+                assert!(wound > 100, "{name}: the winding number passes 1/2 at {wound} points");
             }
         }
     }
