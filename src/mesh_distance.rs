@@ -10,10 +10,13 @@
 //! are built in parallel, each small subtree from a work list; no split leaves less than a
 //! quarter of a node's triangles on one side, so a mesh of millions of triangles neither
 //! overflows a stack (the parallel recursion is as deep as the tree) nor makes a deep tree.
+//! Queries descend a four-wide hierarchy made from it ([`widen`]): a node holds the boxes of
+//! up to four children side by side, measured in one pass, so a descent takes half the steps
+//! and far fewer branches than through the binary one.
 //!
 //! # What it guarantees
 //! * **Exact:** [`MeshDistance::nearest`] visits every node whose box could hold a closer point
-//!   than the best found so far (nearer child first, pruned by the squared distance to the
+//!   than the best found so far (nearest child first, pruned by the squared distance to the
 //!   box), and finds each triangle's closest point with Ericson's region test (*Real-Time
 //!   Collision Detection*, 5.1.5). The answer is the brute-force minimum over all triangles up
 //!   to rounding, for any finite query point, near the surface or far outside its box.
@@ -73,7 +76,9 @@ pub const LEAF: usize = 4;
 /// triangles' corners twice (as read from the mesh and in the hierarchy's order), their
 /// centroids, boxes and indices while sorting, which way each faces, which are slivers, and
 /// the nodes, fewer than `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles
-/// each). Not counted: what the first sign ([`MeshDistance::inside`]) builds: the
+/// each). The four-wide nodes, fewer than `2 / LEAF` a triangle ([`widen`]), are made once
+/// the sort's entries and the corners as read are freed, and take less than those. Not
+/// counted: what the first sign ([`MeshDistance::inside`]) builds: the
 /// re-orientation and its tables (those of reading a mesh, [`crate::memory`]), the lines'
 /// grids and the winding number's tree.
 pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
@@ -114,34 +119,146 @@ struct Node {
 impl Node {
     /// A node with the box from `min` to `max`, rounded outward to f32.
     fn new(min: DVec3, max: DVec3) -> Node {
-        let down = |v: f64| {
-            let r = v as f32;
-            if f64::from(r) > v { r.next_down() } else { r }
-        };
-        let up = |v: f64| {
-            let r = v as f32;
-            if f64::from(r) < v { r.next_up() } else { r }
-        };
-        Node {
-            min: Vec3::from_array(min.to_array().map(down)),
-            max: Vec3::from_array(max.to_array().map(up)),
-            first: 0,
-            count: 0,
+        let [min, max] = rounded_outward(min, max);
+        Node { min, max, first: 0, count: 0 }
+    }
+}
+
+/// The box from `min` to `max` in f32, rounded outward: it holds the original.
+fn rounded_outward(min: DVec3, max: DVec3) -> [Vec3; 2] {
+    let down = |v: f64| {
+        let r = v as f32;
+        if f64::from(r) > v { r.next_down() } else { r }
+    };
+    let up = |v: f64| {
+        let r = v as f32;
+        if f64::from(r) < v { r.next_up() } else { r }
+    };
+    [Vec3::from_array(min.to_array().map(down)), Vec3::from_array(max.to_array().map(up))]
+}
+
+/// Children of a node of the four-wide hierarchy.
+const WIDTH: usize = 4;
+
+/// `first` of an empty child slot.
+const EMPTY: u32 = u32::MAX;
+
+/// A node of the four-wide hierarchy that queries descend ([`widen`]): the boxes of up to
+/// [`WIDTH`] children side by side, so that one pass measures the four, and each child's
+/// triangles or node. An empty slot has an empty box (min +∞, max −∞), never opened.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Wide {
+    /// The children's boxes, by axis then child: f32, rounded outward, as a [`Node`]'s.
+    min: [[f32; WIDTH]; 3],
+    max: [[f32; WIDTH]; 3],
+    /// A leaf child's first triangle, an inner child's node, or [`EMPTY`].
+    first: [u32; WIDTH],
+    /// A leaf child's number of triangles; 0 for an inner child or an empty slot.
+    count: [u32; WIDTH],
+}
+
+impl Wide {
+    /// A node of empty slots.
+    const EMPTY: Wide = Wide {
+        min: [[f32::INFINITY; WIDTH]; 3],
+        max: [[f32::NEG_INFINITY; WIDTH]; 3],
+        first: [EMPTY; WIDTH],
+        count: [0; WIDTH],
+    };
+
+    /// The squared distance from `p` to each child's box (0 inside it, +∞ for an empty slot).
+    #[inline]
+    fn distances_squared(&self, p: DVec3) -> [f64; WIDTH] {
+        let mut d2 = [0.0; WIDTH];
+        for axis in 0..3 {
+            let x = p[axis];
+            for (k, d2) in d2.iter_mut().enumerate() {
+                let below = f64::from(self.min[axis][k]) - x;
+                let above = x - f64::from(self.max[axis][k]);
+                let outside = below.max(above).max(0.0);
+                *d2 += outside * outside;
+            }
+        }
+        d2
+    }
+}
+
+/// The slots of a four-wide node in the order of `d2`, farthest first (a sorting network:
+/// no branches to mispredict).
+#[inline]
+fn farthest_first(d2: &[f64; WIDTH]) -> [usize; WIDTH] {
+    let mut order = [0, 1, 2, 3];
+    let mut swap = |i: usize, j: usize| {
+        if d2[order[i]] < d2[order[j]] {
+            order.swap(i, j);
+        }
+    };
+    swap(0, 1);
+    swap(2, 3);
+    swap(0, 2);
+    swap(1, 3);
+    swap(1, 2);
+    order
+}
+
+/// The four-wide hierarchy of the binary one `binary` (its root first, as [`hierarchy`] makes
+/// it): each wide node holds the children of a binary node, with the inner child of the
+/// largest box replaced by its own two children while there are fewer than [`WIDTH`] (the
+/// collapse of Wald et al. 2008, "Getting rid of packets"). The leaves and the triangles'
+/// order are the binary hierarchy's; a root that is a leaf becomes a wide root's one child.
+/// Each wide node stands for a different inner binary node, so there are fewer of them than
+/// `2 / LEAF` a triangle.
+fn widen(binary: &[Node]) -> Vec<Wide> {
+    let mut wide = vec![Wide::EMPTY];
+    // Binary nodes whose children a wide node still has to take, and that wide node.
+    let mut pending = vec![(0, 0)];
+    while let Some((n, w)) = pending.pop() {
+        for (k, c) in collapsed(binary, n).into_iter().enumerate() {
+            let node = binary[c];
+            for axis in 0..3 {
+                wide[w].min[axis][k] = node.min[axis];
+                wide[w].max[axis][k] = node.max[axis];
+            }
+            if node.count > 0 {
+                (wide[w].first[k], wide[w].count[k]) = (node.first, node.count);
+            } else {
+                wide[w].first[k] = wide.len() as u32;
+                pending.push((c, wide.len()));
+                wide.push(Wide::EMPTY);
+            }
         }
     }
+    wide
+}
 
-    /// The squared distance from `p` to the node's box (0 inside it).
-    #[inline]
-    fn distance_squared(&self, p: DVec3) -> f64 {
-        let outside = (self.min.as_dvec3() - p).max(p - self.max.as_dvec3()).max(DVec3::ZERO);
-        outside.length_squared()
+/// The children of binary node `n` in a wide node: its own two, each inner one of the largest
+/// box replaced by its two while there are fewer than [`WIDTH`]; `n` itself for a leaf.
+fn collapsed(binary: &[Node], n: usize) -> Vec<usize> {
+    if binary[n].count > 0 {
+        return vec![n];
     }
+    let children = |c: usize| [binary[c].first as usize, binary[c].first as usize + 1];
+    let mut taken = children(n).to_vec();
+    while taken.len() < WIDTH {
+        let extent = |c: usize| (binary[c].max - binary[c].min).as_dvec3();
+        let inner = taken.iter().enumerate().filter(|&(_, &c)| binary[c].count == 0);
+        let Some((k, _)) = inner.max_by(|a, b| area(extent(*a.1)).total_cmp(&area(extent(*b.1))))
+        else {
+            break;
+        };
+        let c = taken.swap_remove(k);
+        taken.extend(children(c));
+    }
+    taken
 }
 
 /// A triangle mesh prepared for exact distance queries.
 #[derive(Debug, Clone)]
 pub struct MeshDistance {
-    nodes: Vec<Node>,
+    /// The four-wide hierarchy that queries descend, its root first ([`widen`]).
+    nodes: Vec<Wide>,
+    /// The box of all the triangles (f32, rounded outward, as a [`Node`]'s).
+    bounds: [DVec3; 2],
     /// The triangles' corners, in the hierarchy's order.
     triangles: Vec<[DVec3; 3]>,
     /// The index in the mesh of each of `triangles`.
@@ -201,11 +318,22 @@ impl MeshDistance {
 
     /// The hierarchy over `triangles` (at least one), with the triangles in its order;
     /// `centre`: the mean of the mesh's vertices.
-    fn build(triangles: Vec<[DVec3; 3]>, centre: DVec3) -> MeshDistance {
-        let (nodes, indices) = hierarchy(&triangles, LEAF);
-        let triangles: Vec<_> = indices.iter().map(|&t| triangles[t as usize]).collect();
+    fn build(corners: Vec<[DVec3; 3]>, centre: DVec3) -> MeshDistance {
+        let (binary, indices) = hierarchy(&corners, LEAF);
+        let triangles: Vec<_> = indices.iter().map(|&t| corners[t as usize]).collect();
+        drop(corners);
         let slivers = triangles.iter().map(is_sliver).collect();
-        MeshDistance { nodes, triangles, indices, slivers, centre, flipped: OnceLock::new() }
+        let bounds = [binary[0].min.as_dvec3(), binary[0].max.as_dvec3()];
+        let nodes = widen(&binary);
+        MeshDistance {
+            nodes,
+            bounds,
+            triangles,
+            indices,
+            slivers,
+            centre,
+            flipped: OnceLock::new(),
+        }
     }
 
     /// Which triangles (in the hierarchy's order) the voxelizer's re-orientation flips,
@@ -299,21 +427,21 @@ impl MeshDistance {
     /// (the answer is then exact whatever the triangle) or a bound with no triangle
     /// (`usize::MAX`), returned as it is when nothing is nearer.
     fn search(&self, p: DVec3, mut best: (f64, usize)) -> (f64, usize) {
-        // Each level leaves at most one node on the stack (see `DEPTH`). Each entry keeps its node's squared
-        // distance, computed once when it was pushed.
-        let mut stack = [(0u32, 0.0f64); DEPTH];
+        // Each entry: a child's `first` and `count` and its box's squared distance, computed
+        // once when it was pushed; the root's node first. A level leaves at most three
+        // entries on the stack (see `WIDE_DEPTH`).
+        let mut stack = [(0u32, 0u32, 0.0f64); WIDE_DEPTH];
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let (n, d2) = stack[top];
+            let (first, count, d2) = stack[top];
             // Pruned unless nearer than the best (so everything is, for a NaN query).
             if d2.partial_cmp(&best.0) != Some(Ordering::Less) {
                 continue;
             }
-            let node = &self.nodes[n as usize];
-            let first = node.first as usize;
-            if node.count > 0 {
-                for t in first..first + node.count as usize {
+            let first = first as usize;
+            if count > 0 {
+                for t in first..first + count as usize {
                     // The triangle's own box first: a cheaper lower bound than its distance.
                     if corner_box_distance_squared(p, &self.triangles[t]) >= best.0 {
                         continue;
@@ -325,17 +453,15 @@ impl MeshDistance {
                 }
                 continue;
             }
-            let near = self.nodes[first].distance_squared(p);
-            let far = self.nodes[first + 1].distance_squared(p);
-            // The nearer child is pushed last, so visited first.
-            let (a, b) = if near <= far {
-                ((first + 1, far), (first, near))
-            } else {
-                ((first, near), (first + 1, far))
-            };
-            stack[top] = (a.0 as u32, a.1);
-            stack[top + 1] = (b.0 as u32, b.1);
-            top += 2;
+            let node = &self.nodes[first];
+            let d2 = node.distances_squared(p);
+            // The children nearer than the best, the nearest pushed last so visited first.
+            for k in farthest_first(&d2) {
+                if d2[k] < best.0 {
+                    stack[top] = (node.first[k], node.count[k], d2[k]);
+                    top += 1;
+                }
+            }
         }
         best
     }
@@ -343,17 +469,14 @@ impl MeshDistance {
     /// Calls `found` with every triangle (in the hierarchy's order) whose squared distance to
     /// `p` is at most `radius2`, that squared distance and its closest point to `p`.
     fn within(&self, p: DVec3, radius2: f64, mut found: impl FnMut(usize, f64, DVec3)) {
-        let mut stack = [0u32; DEPTH];
+        let mut stack = [(0u32, 0u32); WIDE_DEPTH];
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let node = &self.nodes[stack[top] as usize];
-            if node.distance_squared(p) > radius2 {
-                continue;
-            }
-            let first = node.first as usize;
-            if node.count > 0 {
-                for t in first..first + node.count as usize {
+            let (first, count) = stack[top];
+            let first = first as usize;
+            if count > 0 {
+                for t in first..first + count as usize {
                     let (point, _) = self.closest(p, t);
                     let d2 = p.distance_squared(point);
                     if d2 <= radius2 {
@@ -362,9 +485,14 @@ impl MeshDistance {
                 }
                 continue;
             }
-            stack[top] = first as u32;
-            stack[top + 1] = first as u32 + 1;
-            top += 2;
+            let node = &self.nodes[first];
+            let d2 = node.distances_squared(p);
+            for ((&d2, &first), &count) in d2.iter().zip(&node.first).zip(&node.count) {
+                if d2 <= radius2 && first != EMPTY {
+                    stack[top] = (first, count);
+                    top += 1;
+                }
+            }
         }
     }
 
@@ -399,7 +527,7 @@ impl MeshDistance {
     /// place them (the tree rounds centroids to 1/1024 of a unit of that frame, and the winding
     /// number does not change under moves and scales).
     fn winding(&self) -> (Winding, Frame) {
-        let frame = Frame::around(&self.nodes[0]);
+        let frame = Frame::around(self.bounds);
         let oriented = (0..self.len()).map(|t| self.oriented(t).map(|p| frame.to_grid(p)));
         (Winding::new(oriented.collect()), frame)
     }
@@ -419,9 +547,12 @@ const BINS: usize = 16;
 /// than 2^31 triangles, a hierarchy is at most log(2^31) / log(4/3) < 75 levels deep.
 const SIDE: f64 = 0.25;
 
-/// The stack of a descent through a hierarchy: a descent leaves at most one node on the stack
-/// per level, and a hierarchy has fewer levels (see [`SIDE`]).
+/// More levels than a hierarchy has (see [`SIDE`]).
 const DEPTH: usize = 128;
+
+/// The stack of a descent through the four-wide hierarchy: each level leaves at most
+/// `WIDTH - 1` children on the stack, and it has no more levels than the binary one.
+const WIDE_DEPTH: usize = (WIDTH - 1) * DEPTH + 1;
 
 /// Half the surface area of a box of sides `extent`: the measure of the surface area heuristic.
 fn area(extent: DVec3) -> f64 {
@@ -629,6 +760,9 @@ const PLANE_ENTRIES_PER_TRIANGLE: u64 = 8;
 /// whose projected box covers each cell, so that a line finds its triangles in one cell.
 struct Lines {
     triangles: Vec<[DVec3; 3]>,
+    /// Each triangle's box, f32, rounded outward: a line outside it misses the triangle,
+    /// found from a third of the bytes of its corners.
+    boxes: Vec<[Vec3; 2]>,
     planes: [Plane; 3],
 }
 
@@ -636,11 +770,17 @@ impl Lines {
     /// The three planes over `query`'s triangles, built in parallel.
     fn new(query: &MeshDistance) -> Lines {
         let triangles: Vec<[DVec3; 3]> = (0..query.len()).map(|t| query.oriented(t)).collect();
-        let root = &query.nodes[0];
-        let (low, high) = (root.min.as_dvec3(), root.max.as_dvec3());
+        let [low, high] = query.bounds;
         let plane = |axis| Plane::new(&triangles, axis, low, high);
         let (x, (y, z)) = rayon::join(|| plane(0), || rayon::join(|| plane(1), || plane(2)));
-        Lines { triangles, planes: [x, y, z] }
+        let boxes = triangles
+            .iter()
+            .map(|t| {
+                let (min, max) = corner_box(t);
+                rounded_outward(min, max)
+            })
+            .collect();
+        Lines { triangles, boxes, planes: [x, y, z] }
     }
 
     /// The votes at `p` of the rays through it along the three axes.
@@ -660,14 +800,13 @@ impl Lines {
         let q = [p[u], p[v]];
         let mut tally = Tally::default();
         for &t in plane.listed(q) {
-            let corners = &self.triangles[t as usize];
-            let [a, b, c] = *corners;
             // Wholly to one side of the line (a tie is left to the crossing test).
-            let aside =
-                |k: usize, x: f64| (a[k].max(b[k]).max(c[k]) < x) | (a[k].min(b[k]).min(c[k]) > x);
+            let [min, max] = self.boxes[t as usize];
+            let aside = |k: usize, x: f64| (f64::from(max[k]) < x) | (f64::from(min[k]) > x);
             if aside(u, q[0]) | aside(v, q[1]) {
                 continue;
             }
+            let corners = &self.triangles[t as usize];
             if let Some((depth, enter)) = Projected::new(corners, axis).cross(q) {
                 tally.add(depth, enter, p[axis]);
             }
@@ -819,8 +958,7 @@ impl Sign<'_> {
     /// crossing of the line along it lies on one side of `p` (an outside vote, or none where
     /// the count is odd).
     fn beyond(&self, p: DVec3) -> bool {
-        let root = &self.query.nodes[0];
-        let (min, max) = (root.min.as_dvec3(), root.max.as_dvec3());
+        let [min, max] = self.query.bounds;
         let margin = BEYOND * (max - min).max_element();
         (p - max).max(min - p).max_element() > margin
     }
@@ -841,10 +979,9 @@ struct Frame {
 }
 
 impl Frame {
-    /// The frame in which `root`'s box starts at the origin and its longest side is
-    /// [`WINDING_FRAME`] long (scale 1 for a box of no size).
-    fn around(root: &Node) -> Frame {
-        let (min, max) = (root.min.as_dvec3(), root.max.as_dvec3());
+    /// The frame in which the box from `min` to `max` starts at the origin and its longest
+    /// side is [`WINDING_FRAME`] long (scale 1 for a box of no size).
+    fn around([min, max]: [DVec3; 2]) -> Frame {
         let longest = (max - min).max_element();
         let scale =
             if longest > 0.0 && longest.is_finite() { WINDING_FRAME / longest } else { 1.0 };
@@ -1106,6 +1243,53 @@ mod tests {
             if name == "disks" {
                 assert!(wound > 100, "{name}: the winding number passes 1/2 at {wound} points");
             }
+        }
+    }
+
+    /// The four-wide hierarchy holds each of the binary one's leaves once, every slot's box
+    /// holding the boxes of its node's slots, each node reached once, fewer nodes than
+    /// `2 / LEAF` a triangle; one leaf makes a root of one slot.
+    #[test]
+    fn the_wide_hierarchy_holds_every_leaf_once_in_boxes_that_hold_their_children() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for n in [3, 5_000] {
+            let triangles: Vec<[DVec3; 3]> = (0..n)
+                .map(|_| {
+                    let a = DVec3::new(rng.random(), rng.random(), rng.random());
+                    [a, a + DVec3::X * 0.01, a + DVec3::Z * 0.02]
+                })
+                .collect();
+            let (binary, _) = hierarchy(&triangles, LEAF);
+            let mut expected: Vec<(u32, u32)> =
+                binary.iter().filter(|b| b.count > 0).map(|b| (b.first, b.count)).collect();
+            let wide = widen(&binary);
+            let mut leaves = Vec::new();
+            let mut reached = vec![0; wide.len()];
+            let mut stack = vec![0];
+            while let Some(w) = stack.pop() {
+                reached[w] += 1;
+                let node = &wide[w];
+                for k in (0..WIDTH).filter(|&k| node.first[k] != EMPTY) {
+                    if node.count[k] > 0 {
+                        leaves.push((node.first[k], node.count[k]));
+                        continue;
+                    }
+                    let child = &wide[node.first[k] as usize];
+                    for j in (0..WIDTH).filter(|&j| child.first[j] != EMPTY) {
+                        for axis in 0..3 {
+                            assert!(child.min[axis][j] >= node.min[axis][k]);
+                            assert!(child.max[axis][j] <= node.max[axis][k]);
+                        }
+                    }
+                    stack.push(node.first[k] as usize);
+                }
+            }
+            expected.sort_unstable();
+            leaves.sort_unstable();
+            assert_eq!(leaves, expected, "{n} triangles");
+            assert!(reached.iter().all(|&r| r == 1), "{n} triangles");
+            let nodes = wide.len();
+            assert!(nodes * LEAF < 2 * n.max(LEAF), "{n} triangles: {nodes} nodes");
         }
     }
 
