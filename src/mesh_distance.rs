@@ -88,7 +88,7 @@ pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
     + size_of::<Node>() * 4 / LEAF;
 
 /// The closest point of a mesh's surface to a query point.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Nearest {
     /// The (unsigned) distance from the query to `point`, in the mesh's units.
     pub distance: f64,
@@ -390,20 +390,18 @@ impl MeshDistance {
 
     /// `answer(i, found)` of each point `i` and what [`MeshDistance::search`] found for it,
     /// the points searched as [`MeshDistance::nearest_all`] says, each from the answer before.
-    fn search_all<T: Send + Sync + Copy>(
+    fn search_all<T: Send + Sync + Copy + Default>(
         &self,
         points: &[DVec3],
         answer: impl Fn(usize, (f64, usize)) -> T + Sync + Send,
     ) -> Vec<T> {
-        along_curve(points, |run| {
+        along_curve(points, |run, answers| {
             let mut start = 0;
-            run.iter()
-                .map(|&i| {
-                    let found = self.search(points[i], self.seed(points[i], start));
-                    start = found.1;
-                    answer(i, found)
-                })
-                .collect()
+            for (&i, answered) in run.iter().zip(answers) {
+                let found = self.search(points[i], self.seed(points[i], start));
+                start = found.1;
+                *answered = answer(i, found);
+            }
         })
     }
 
@@ -518,7 +516,11 @@ impl MeshDistance {
     /// nodes.
     pub fn inside(&self, points: &[DVec3]) -> Vec<bool> {
         let sign = Sign::new(self);
-        along_curve(points, |run| run.iter().map(|&i| sign.inside(points[i])).collect())
+        along_curve(points, |run, answers| {
+            for (&i, answered) in run.iter().zip(answers) {
+                *answered = sign.inside(points[i]);
+            }
+        })
     }
 
     /// The winding number's tree over the triangles (in the hierarchy's order: the sum does
@@ -997,19 +999,23 @@ impl Frame {
 /// answer before it (and that [`MeshDistance::inside`] answers in the same order).
 pub const RUN: usize = 64;
 
-/// `answer` of each point, answered in runs of [`RUN`] consecutive points along a Morton
-/// curve over their box, the runs in parallel; the answers in the points' order.
-fn along_curve<T: Send + Sync + Copy>(
+/// The answers for `points`, in their order: `answer(run, answers)` fills the answers of a
+/// run of [`RUN`] consecutive points along a Morton curve over their box (their indices), the
+/// runs in parallel.
+fn along_curve<T: Send + Sync + Copy + Default>(
     points: &[DVec3],
-    answer: impl Fn(&[usize]) -> Vec<T> + Sync + Send,
+    answer: impl Fn(&[usize], &mut [T]) + Sync + Send,
 ) -> Vec<T> {
     let order = curve_order(points);
-    let answers: Vec<T> = order.par_chunks(RUN).flat_map_iter(answer).collect();
-    let mut place = vec![0; points.len()];
-    for (k, &i) in order.iter().enumerate() {
-        place[i] = k;
+    let mut along = vec![T::default(); points.len()];
+    along.par_chunks_mut(RUN).zip(order.par_chunks(RUN)).for_each(|(answers, run)| {
+        answer(run, answers);
+    });
+    let mut answers = vec![T::default(); points.len()];
+    for (&i, &answered) in order.iter().zip(&along) {
+        answers[i] = answered;
     }
-    place.into_par_iter().map(|k| answers[k]).collect()
+    answers
 }
 
 /// The indices of `points` along a Morton curve over their box (non-finite points first).

@@ -29,16 +29,22 @@ pub fn write<T: npyz::AutoSerialize>(path: &Path, shape: &[u64], data: &[T]) -> 
     })
 }
 
-/// `data` as the bytes of a C-order NumPy `.npy` file of the given shape.
-pub fn to_bytes<T: npyz::AutoSerialize>(shape: &[u64], data: &[T]) -> Vec<u8> {
-    let mut bytes = Vec::new();
+/// `data` (the shape's number of values) as the bytes of a C-order NumPy `.npy` file of the
+/// given shape.
+pub fn to_bytes<T: npyz::AutoSerialize>(
+    shape: &[u64],
+    data: impl IntoIterator<Item = T>,
+) -> Vec<u8> {
+    // The header takes less than a few hundred bytes.
+    let values = shape.iter().product::<u64>() as usize;
+    let mut bytes = Vec::with_capacity(256 + values * size_of::<T>());
     let mut writer = npyz::WriteOptions::new()
         .default_dtype()
         .shape(shape)
         .writer(&mut bytes)
         .begin_nd()
         .expect("writing to memory cannot fail");
-    writer.extend(data.iter()).expect("writing to memory cannot fail");
+    writer.extend(data).expect("writing to memory cannot fail");
     writer.finish().expect("writing to memory cannot fail");
     bytes
 }

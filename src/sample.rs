@@ -189,30 +189,44 @@ impl Samples {
     /// DeepSDF's layout (see the module doc): the `pos` and `neg` rows `x, y, z, sdf`, float32,
     /// with DeepSDF's sign (negative inside).
     pub fn deepsdf(&self) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
-        let rows = self.points.iter().zip(&self.sdf).map(|(p, &s)| {
+        self.deepsdf_rows().partition(is_pos)
+    }
+
+    /// The rows of [`Samples::deepsdf`], in the points' order.
+    fn deepsdf_rows(&self) -> impl Iterator<Item = [f32; 4]> + '_ {
+        self.points.iter().zip(&self.sdf).map(|(p, &s)| {
             let deepsdf = -s as f32;
             [p.x as f32, p.y as f32, p.z as f32, deepsdf]
-        });
-        rows.partition(|row| row[3] > 0.0)
+        })
     }
 
     /// Writes the samples as a NumPy `.npz` archive, atomically: `points` (N x 3 float64),
     /// `sdf` (N float64, mesh units, inside positive), and DeepSDF's `pos` and `neg`
-    /// ([`Samples::deepsdf`]).
+    /// ([`Samples::deepsdf`]), each array's bytes made straight from the samples.
     ///
     /// # Errors
     /// The file cannot be written, or an array passes 4 GB (the archive is not ZIP64).
     pub fn save_npz(&self, path: &std::path::Path) -> Result<()> {
         let n = self.points.len() as u64;
-        let flat: Vec<f64> = self.points.iter().flat_map(|p| p.to_array()).collect();
-        let (pos, neg) = self.deepsdf();
-        let rows = |r: &[[f32; 4]]| r.iter().flatten().copied().collect::<Vec<f32>>();
+        let pos = self.deepsdf_rows().filter(is_pos).count() as u64;
+        let rows = |keep: bool| {
+            let rows = self.deepsdf_rows().filter(move |row| is_pos(row) == keep);
+            rows.flatten()
+        };
         let arrays = [
-            ("points", crate::npy::to_bytes(&[n, 3], &flat)),
-            ("sdf", crate::npy::to_bytes(&[n], &self.sdf)),
-            ("pos", crate::npy::to_bytes(&[pos.len() as u64, 4], &rows(&pos))),
-            ("neg", crate::npy::to_bytes(&[neg.len() as u64, 4], &rows(&neg))),
+            (
+                "points",
+                crate::npy::to_bytes(&[n, 3], self.points.iter().flat_map(|p| p.to_array())),
+            ),
+            ("sdf", crate::npy::to_bytes(&[n], self.sdf.iter().copied())),
+            ("pos", crate::npy::to_bytes(&[pos, 4], rows(true))),
+            ("neg", crate::npy::to_bytes(&[n - pos, 4], rows(false))),
         ];
         crate::npy::write_npz(path, &arrays)
     }
+}
+
+/// Whether a row of DeepSDF's layout goes to `pos`: its value (DeepSDF's sign) is above 0.
+fn is_pos(row: &[f32; 4]) -> bool {
+    row[3] > 0.0
 }
