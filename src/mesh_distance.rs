@@ -10,9 +10,10 @@
 //! are built in parallel, each small subtree from a work list; no split leaves less than a
 //! quarter of a node's triangles on one side, so a mesh of millions of triangles neither
 //! overflows a stack (the parallel recursion is as deep as the tree) nor makes a deep tree.
-//! Queries descend a four-wide hierarchy made from it ([`widen`]): a node holds the boxes of
-//! up to four children side by side, measured in one pass, so a descent takes half the steps
-//! and far fewer branches than through the binary one.
+//! Queries descend a four-wide hierarchy collapsed from it (as Wald et al. 2008, "Getting rid
+//! of packets"): a node holds the boxes of up to four children side by side, measured in one
+//! pass, so a descent passes about half the levels, with fewer branches, than through the
+//! binary one.
 //!
 //! # What it guarantees
 //! * **Exact:** [`MeshDistance::nearest`] visits every node whose box could hold a closer point
@@ -76,11 +77,11 @@ pub const LEAF: usize = 4;
 /// triangles' corners twice (as read from the mesh and in the hierarchy's order), their
 /// centroids, boxes and indices while sorting, which way each faces, which are slivers, and
 /// the nodes, fewer than `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles
-/// each). The four-wide nodes, fewer than `2 / LEAF` a triangle ([`widen`]), are made once
-/// the sort's entries and the corners as read are freed, and take less than those. Not
-/// counted: what the first sign ([`MeshDistance::inside`]) builds: the
-/// re-orientation and its tables (those of reading a mesh, [`crate::memory`]), the lines'
-/// grids and the winding number's tree.
+/// each). The four-wide nodes, fewer than `2 / LEAF` a triangle, are made once the sort's
+/// entries and the corners as read are freed, and take less than those. Not counted: what the
+/// first sign ([`MeshDistance::inside`]) builds: the re-orientation and its tables (those of
+/// reading a mesh, [`crate::memory`]), the lines' grids and boxes and the winding number's
+/// tree.
 pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
     + size_of::<Item>()
     + size_of::<u32>()
