@@ -952,9 +952,7 @@ impl Sign<'_> {
             winding.at(frame.to_grid(p)) >= 0.5
         })
     }
-}
 
-impl Sign<'_> {
     /// Whether `p` lies beyond the triangles' box along some axis, by more than rounding can
     /// move a crossing ([`BEYOND`] of the box's longest side): then the lines decide
     /// outside. The two lines across that axis meet no triangle (two outside votes), and every
