@@ -60,6 +60,17 @@ const FOLLOW_PER_VOXEL: u64 = 12;
 /// What polygonizing holds whatever the grid: the points of a chunk of a million voxels and
 /// their values, and the evaluation's tables.
 const POLYGONIZE_BASE: u64 = 96 << 20;
+/// Triangles of a fitted model's polygonized surface per voxel face (the square of the voxel
+/// size) of its mesh's area: marching tetrahedra cut each cube the surface crosses in about six
+/// pieces (measured: 8.6 to 9.2 for the default fits of the bunny, horse and triceratops, 9.2
+/// for the bunny at 1024).
+const MODEL_TRIANGLES_PER_AREA: f64 = 10.0;
+/// Bytes per triangle of a fitted model's polygonized surface while the report measures the mesh
+/// against it: the surface (half a vertex and one triangle, 24) and the distance query built
+/// over it ([`crate::mesh_distance::BYTES_PER_TRIANGLE`]). Polygonizing it holds less
+/// (measured: 130 a triangle for the bunny's model of 22.8 million triangles at 1024, its values,
+/// visited cubes and edge tables included).
+const MODEL_SURFACE_PER_TRIANGLE: u64 = 24 + crate::mesh_distance::BYTES_PER_TRIANGLE as u64;
 /// Bytes per triangle of a distance query, beyond reading the mesh: the hierarchy while it is
 /// built ([`crate::mesh_distance::BYTES_PER_TRIANGLE`], 262), for the sign the lines' grids
 /// across the three axes (a copy of the re-oriented corners, 72, and for each axis at most 8
@@ -171,10 +182,10 @@ impl Estimate {
     /// A fit with detail levels of a mesh of `triangles` triangles on a grid of `dims` voxels,
     /// its goal on a grid of `goal_dims` (`dims`, or a coarser grid: see
     /// [`crate::fit::levels::goal_grid`]), at `points` surface points
-    /// ([`crate::fit::levels::BYTES_PER_POINT`] a point): the larger of the fit on the goal's
-    /// grid (its level 0's iterations, on a grid of a quarter of the goal's resolution or less,
-    /// fit in what the goal's measure holds) and the polygonization of the model on `dims` that
-    /// follows it.
+    /// ([`crate::fit::levels::BYTES_PER_POINT`] a point): level 0's iterations, on a grid of a
+    /// quarter of the goal's resolution or less, fit in what the goal's measure holds. The
+    /// model's surface, polygonized on `dims` once the goal is freed, is
+    /// [`Estimate::measured_surface`].
     pub fn levels(
         goal_dims: [usize; 3],
         dims: [usize; 3],
@@ -183,9 +194,20 @@ impl Estimate {
     ) -> Estimate {
         let goal = Estimate::grid(goal_dims, LEVELS_PER_VOXEL, triangles);
         let points = (points as u64).saturating_mul(crate::fit::levels::BYTES_PER_POINT);
-        let fit = goal.bytes.saturating_add(points);
-        let surface = Estimate::polygonize(dims, false).bytes;
-        Estimate { bytes: fit.max(surface), what: Estimate::grid(dims, 0, 0).what }
+        Estimate { bytes: goal.bytes.saturating_add(points), what: Estimate::grid(dims, 0, 0).what }
+    }
+
+    /// A fitted model's surface, polygonized on the fit's grid and measured against its mesh
+    /// (the report's `mesh_distance`), for a mesh of `area` voxel faces (mesh units squared
+    /// over the square of the voxel size): the surface's triangles
+    /// (`MODEL_TRIANGLES_PER_AREA` a voxel face) and the distance query over them. It follows
+    /// the fit, whose grids are freed first.
+    pub fn measured_surface(area: f64) -> Estimate {
+        let triangles = (area * MODEL_TRIANGLES_PER_AREA).ceil() as u64;
+        Estimate {
+            bytes: BASE.saturating_add(triangles.saturating_mul(MODEL_SURFACE_PER_TRIANGLE)),
+            what: format!("a polygonized surface of about {triangles} triangles"),
+        }
     }
 
     /// A picture of `width` x `height` pixels.
@@ -207,6 +229,11 @@ impl Estimate {
             bytes,
             what: format!("a grid of {} x {} x {} voxels", dims[0], dims[1], dims[2]),
         }
+    }
+
+    /// The larger of two pieces of work done one after the other, named as the first.
+    pub fn followed_by(self, other: &Estimate) -> Estimate {
+        Estimate { bytes: self.bytes.max(other.bytes), ..self }
     }
 
     /// The sum of two pieces of work held at once, named as the first.

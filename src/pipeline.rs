@@ -396,6 +396,9 @@ pub struct Prepared<'a> {
     options: MeshFitOptions,
     /// The memory the fit's grids leave for its solves.
     limit: u64,
+    /// The mesh's area, mesh units squared (both faces of a shell's), which sizes the model's
+    /// polygonized surface ([`Estimate::measured_surface`]).
+    area: f64,
     goal_seconds: f64,
 }
 
@@ -622,7 +625,12 @@ fn mesh_area(mesh: &Mesh) -> f64 {
 /// it is voxelized: about one a voxel of area (measured: 0.87 to 0.90 of `area` in voxels on
 /// the paper's models at 512).
 fn surface_points(area: f64, grid: &Grid) -> usize {
-    (area / (grid.voxel_size * grid.voxel_size)).ceil() as usize
+    area_in_voxels(area, grid).ceil() as usize
+}
+
+/// `area` (mesh units squared) in faces of `grid`'s voxels.
+fn area_in_voxels(area: f64, grid: &Grid) -> f64 {
+    area / (grid.voxel_size * grid.voxel_size)
 }
 
 fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
@@ -674,6 +682,7 @@ impl<'a> Prepared<'a> {
             } else {
                 Estimate::fit(g.dims, triangles)
             };
+            let fit = fit.followed_by(&Estimate::measured_surface(area_in_voxels(area, g)));
             if options.shell.is_some() {
                 fit.plus(&Estimate::shell(g.dims, triangles))
             } else {
@@ -745,6 +754,7 @@ impl<'a> Prepared<'a> {
             thickness,
             options,
             limit,
+            area,
             goal_seconds,
         })
     }
@@ -892,11 +902,14 @@ impl<'a> Prepared<'a> {
     }
 
     /// The memory a fit with detail levels holds at the goal's surface points (see
-    /// [`Estimate::levels`]; the check before the goal estimated them from the mesh's area).
+    /// [`Estimate::levels`]; the check before the goal estimated them from the mesh's area),
+    /// or its model's surface after it ([`Estimate::measured_surface`]).
     fn levels_estimate(&self) -> Estimate {
         let points = self.goal.mesh_points().map_or(0, <[_]>::len).max(self.goal.surface().len());
         let goal_dims = self.goal.grid().dims;
+        let surface = Estimate::measured_surface(area_in_voxels(self.area, &self.grid));
         Estimate::levels(goal_dims, self.grid.dims, self.mesh.triangles.len(), points)
+            .followed_by(&surface)
     }
 
     /// The most constraints, up to `requested`, whose solve fits in the memory limit beside the

@@ -178,8 +178,8 @@ def peak_and_estimate(cli, *args) -> tuple:
 
 @pytest.mark.parametrize(
     "command, resolution",
-    [("sdf", 96), ("sdf", 256), ("fit", 64), ("fit", 160), ("mesh", 256), ("mesh", 512),
-     ("mesh-dense", 256), ("mesh-dense", 512)],
+    [("sdf", 96), ("sdf", 256), ("fit", 64), ("fit", 160), ("fit-levels", 512), ("mesh", 256),
+     ("mesh", 512), ("mesh-dense", 256), ("mesh-dense", 512)],
 )
 def test_memory_estimates_are_upper_bounds_of_the_peak(tmp_path, cli, triceratops, command, resolution):
     model = tmp_path / "model.json"
@@ -191,7 +191,8 @@ def test_memory_estimates_are_upper_bounds_of_the_peak(tmp_path, cli, triceratop
     elif command == "sdf":
         args = ["sdf", triceratops, "--resolution", resolution, "-o", tmp_path / "s.npy"]
     else:
-        args = ["fit", triceratops, "--resolution", resolution, "-o", model]
+        levels = ["--target-error", "1"] if command == "fit-levels" else []
+        args = ["fit", triceratops, "--resolution", resolution, *levels, "-o", model]
     peak, estimate = peak_and_estimate(cli, *args)
     assert peak < estimate, f"{command} at {resolution}: peak {peak:.0f} MB, estimate {estimate:.0f} MB"
 

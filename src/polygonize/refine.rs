@@ -84,6 +84,11 @@ impl Bracket {
         }
     }
 
+    /// The vertex's place along its edge: the last estimate, kept off the edge's ends.
+    fn final_estimate(&self) -> f64 {
+        self.estimate().clamp(END_MARGIN, 1.0 - END_MARGIN)
+    }
+
     fn done(&self) -> bool {
         self.g_in == 0.0
             || (self.t_in - self.t_out).abs() < TOLERANCE
@@ -91,18 +96,36 @@ impl Bracket {
     }
 }
 
+/// Vertices refined at once: their brackets, points and values take about 130 bytes each, so a
+/// surface of tens of millions of vertices is refined in the memory of one chunk.
+const CHUNK: usize = 1 << 20;
+
 /// Moves every vertex onto the zero of `field` along its edge of `grid`. `ends(v)` gives the
 /// field's values along a vertex's edge line at `t = -1, 0, 1, 2` (0 its base, 1 its far end:
-/// the values the surface was extracted from), NaN where unknown.
+/// the values the surface was extracted from), NaN where unknown. The vertices are refined
+/// [`CHUNK`] at a time.
 pub(super) fn refine<F: Field + ?Sized>(
     field: &F,
     grid: &Grid,
     vertices: &mut [EdgeVertex],
     ends: impl Fn(&EdgeVertex) -> [f64; 4] + Sync,
 ) {
+    for chunk in vertices.chunks_mut(CHUNK) {
+        refine_chunk(field, grid, chunk, &ends);
+    }
+}
+
+/// [`refine`] of one chunk of vertices: every step evaluates the chunk's unfinished vertices
+/// in one call.
+fn refine_chunk<F: Field + ?Sized>(
+    field: &F,
+    grid: &Grid,
+    vertices: &mut [EdgeVertex],
+    ends: &(impl Fn(&EdgeVertex) -> [f64; 4] + Sync),
+) {
     let mut open: Vec<Bracket> =
         vertices.par_iter().enumerate().map(|(n, v)| initial_bracket(n, ends(v))).collect();
-    let mut closed = Vec::with_capacity(open.len());
+    let mut t = vec![0.5; vertices.len()];
     for _ in 0..MAX_STEPS {
         if open.is_empty() {
             break;
@@ -118,15 +141,13 @@ pub(super) fn refine<F: Field + ?Sized>(
         open.par_iter_mut()
             .zip(steps.par_iter().zip(values.par_iter()))
             .for_each(|(b, (&t, &g))| b.update(t, g));
-        let (finished, unfinished): (Vec<Bracket>, Vec<Bracket>) =
-            open.into_par_iter().partition(Bracket::done);
-        closed.extend(finished);
-        open = unfinished;
+        for b in open.iter().filter(|b| b.done()) {
+            t[b.vertex] = b.final_estimate();
+        }
+        open.retain(|b| !b.done());
     }
-    closed.extend(open);
-    let mut t = vec![0.5; vertices.len()];
-    for b in &closed {
-        t[b.vertex] = b.estimate().clamp(END_MARGIN, 1.0 - END_MARGIN);
+    for b in &open {
+        t[b.vertex] = b.final_estimate();
     }
     vertices
         .par_iter_mut()

@@ -49,6 +49,9 @@ pub(super) const LATTICE_STEP: usize = 8;
 /// the grid of half the resolution, to predict the band of voxels it needs.
 const PREDICT_FROM: usize = 256;
 
+/// Crossing cubes whose edge keys are made distinct together ([`Tracker::edge_keys`]).
+const KEY_RUN: usize = 1 << 12;
+
 /// A hasher for voxel and edge indices: the murmur3 finalizer, which spreads indices that
 /// differ only in their high bits (voxels of one column) over the whole table.
 #[derive(Default)]
@@ -402,20 +405,31 @@ impl<'a, F: Field + ?Sized> Tracker<'a, F> {
         Surface { vertices, triangles }
     }
 
-    /// The keys of the edges the crossing cubes' pieces use, sorted and distinct.
+    /// The keys of the edges the crossing cubes' pieces use, sorted and distinct. Each edge is
+    /// used by several neighbouring cubes, so the keys of a run of cubes (sorted by index) are
+    /// made distinct before all are gathered: the list never holds the several copies.
     fn edge_keys(&self) -> Vec<usize> {
         let mut keys: Vec<usize> = self
             .crossing
-            .par_iter()
-            .flat_map_iter(|&cube| {
-                let pieces = CASES.pieces(self.corner_values(cube).1);
-                pieces.iter().flat_map(move |p| {
-                    p.edges[..p.len as usize].iter().map(move |&e| self.edge_key(cube, e))
-                })
+            .par_chunks(KEY_RUN)
+            .flat_map_iter(|run| {
+                let mut keys: Vec<usize> = run
+                    .iter()
+                    .flat_map(|&cube| {
+                        let pieces = CASES.pieces(self.corner_values(cube).1);
+                        pieces.iter().flat_map(move |p| {
+                            p.edges[..p.len as usize].iter().map(move |&e| self.edge_key(cube, e))
+                        })
+                    })
+                    .collect();
+                keys.sort_unstable();
+                keys.dedup();
+                keys
             })
             .collect();
         keys.par_sort_unstable();
         keys.dedup();
+        keys.shrink_to_fit();
         keys
     }
 
