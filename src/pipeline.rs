@@ -535,7 +535,7 @@ pub fn distance(
             format!("point {i} has a non-finite coordinate: {}", points[i]),
         ));
     }
-    Estimate::distance(mesh.triangles.len(), points.len())
+    Estimate::distance(mesh.triangles.len(), points.len(), options.signed)
         .check(options.memory_limit.bytes(), || None)
         .map_err(|e| e.in_context(source))?;
     let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
