@@ -28,8 +28,9 @@ const MAX_STEPS: usize = 6;
 /// A bracket is done when it is this narrow, as a fraction of its edge.
 const TOLERANCE: f64 = 1e-9;
 
-/// Bisections of the cubic's zero: to 2^-30 of the edge.
-const CUBIC_BISECTIONS: usize = 30;
+/// Bisections of the cubic's zero: to 2^-20 of the edge, a millionth, far within
+/// [`STEP_TOLERANCE`]: the field's value there, not this zero, places the vertex.
+const CUBIC_BISECTIONS: usize = 20;
 
 /// A vertex is done when its next estimate moves less than this, as a fraction of its edge,
 /// from the last point evaluated.
@@ -165,25 +166,25 @@ fn initial_bracket(vertex: usize, line: [f64; 4]) -> Bracket {
 }
 
 /// The zero in `(0, 1)` of the cubic through `values` at `t = -1, 0, 1, 2`, whose values at 0
-/// and 1 lie on opposite sides, by bisection; `None` if a value is not finite.
+/// and 1 lie on opposite sides, by bisection; `None` if a value is not finite. The cubic is
+/// summed in powers of `t` (Lagrange's form expanded) and each bisection picks its half without
+/// a branch: the halves are taken in no order a predictor could learn.
 fn cubic_zero(values: [f64; 4]) -> Option<f64> {
     if values.iter().any(|v| !v.is_finite()) {
         return None;
     }
     let [a, b, c, d] = values;
-    let cubic = |t: f64| {
-        let (p, q, r) = (t + 1.0, t - 1.0, t - 2.0);
-        (-a * t * q * r + 3.0 * b * p * q * r - 3.0 * c * p * t * r + d * p * t * q) / 6.0
-    };
+    let c3 = (-a + 3.0 * b - 3.0 * c + d) / 6.0;
+    let c2 = (a - 2.0 * b + c) / 2.0;
+    let c1 = (-2.0 * a - 3.0 * b + 6.0 * c - d) / 6.0;
+    let cubic = |t: f64| ((c3 * t + c2) * t + c1) * t + b;
     let inside_at_zero = b >= 0.0;
     let (mut lo, mut hi) = (0.0f64, 1.0f64);
     for _ in 0..CUBIC_BISECTIONS {
         let mid = 0.5 * (lo + hi);
-        if (cubic(mid) >= 0.0) == inside_at_zero {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
+        let upper = (cubic(mid) >= 0.0) == inside_at_zero;
+        lo = if upper { mid } else { lo };
+        hi = if upper { hi } else { mid };
     }
     Some(0.5 * (lo + hi))
 }
