@@ -563,12 +563,13 @@ fn area(extent: DVec3) -> f64 {
 }
 
 /// A triangle as [`hierarchy`] sorts it: its centroid (the key its splits compare), the box of
-/// its corners, and its index; kept together so that a node's pass reads them in order.
+/// its corners (rounded outward, as the nodes' boxes are), and its index, in f32 (40 bytes, so
+/// that a node's passes read half as much); kept together so that a pass reads them in order.
 #[derive(Debug, Clone, Copy)]
 struct Item {
-    centroid: DVec3,
-    min: DVec3,
-    max: DVec3,
+    centroid: Vec3,
+    min: Vec3,
+    max: Vec3,
     t: u32,
 }
 
@@ -590,7 +591,8 @@ fn hierarchy(triangles: &[[DVec3; 3]], leaf: usize) -> (Vec<Node>, Vec<u32>) {
         .map(|t| {
             let corners = &triangles[t as usize];
             let (min, max) = corner_box(corners);
-            let centroid = (corners[0] + corners[1] + corners[2]) / 3.0;
+            let [min, max] = rounded_outward(min, max);
+            let centroid = ((corners[0] + corners[1] + corners[2]) / 3.0).as_vec3();
             Item { centroid, min, max, t }
         })
         .collect();
@@ -654,13 +656,13 @@ fn sequential_subtree(items: &mut [Item], start: usize, leaf: usize) -> Vec<Node
 /// The node over `part` (its box; no children yet) and, unless it is a leaf of at most `leaf`
 /// triangles, `part` reordered so that its first child's triangles come first, and how many.
 fn split(part: &mut [Item], leaf: usize) -> (Node, Option<usize>) {
-    let (mut min, mut max) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    let (mut low, mut high) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    let (mut low, mut high) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for item in part.iter() {
         (min, max) = (min.min(item.min), max.max(item.max));
         (low, high) = (low.min(item.centroid), high.max(item.centroid));
     }
-    let node = Node::new(min, max);
+    let node = Node { min, max, first: 0, count: 0 };
     if part.len() <= leaf {
         return (node, None);
     }
@@ -677,21 +679,22 @@ fn split(part: &mut [Item], leaf: usize) -> (Node, Option<usize>) {
 
 /// The bins of [`hierarchy`]'s split: each one's box and number of triangles.
 struct Bins {
-    boxes: [(DVec3, DVec3, usize); BINS],
+    boxes: [(Vec3, Vec3, usize); BINS],
 }
 
 impl Bins {
     /// Splits `part` across `axis`, whose centroids span `range`, at the cheapest boundary
     /// between bins: the triangles of the bins below it first. The number below, or `None`
     /// (`part` untouched) when no boundary leaves enough on each side.
-    fn split(part: &mut [Item], axis: usize, (low, high): (f64, f64)) -> Option<usize> {
+    fn split(part: &mut [Item], axis: usize, (low, high): (f32, f32)) -> Option<usize> {
         let width = high - low;
         // Also none for a NaN width.
         if width.partial_cmp(&0.0) != Some(Ordering::Greater) {
             return None;
         }
-        let bin = |key: DVec3| (((key[axis] - low) / width * BINS as f64) as usize).min(BINS - 1);
-        let mut bins = Bins { boxes: [(DVec3::INFINITY, DVec3::NEG_INFINITY, 0); BINS] };
+        let scale = BINS as f32 / width;
+        let bin = |key: Vec3| (((key[axis] - low) * scale) as usize).min(BINS - 1);
+        let mut bins = Bins { boxes: [(Vec3::INFINITY, Vec3::NEG_INFINITY, 0); BINS] };
         for item in part.iter() {
             let slot = &mut bins.boxes[bin(item.centroid)];
             *slot = (slot.0.min(item.min), slot.1.max(item.max), slot.2 + 1);
@@ -713,11 +716,11 @@ impl Bins {
     fn cheapest(&self) -> Option<usize> {
         let total: usize = self.boxes.iter().map(|b| b.2).sum();
         let fewest = ((SIDE * total as f64).ceil() as usize).max(1);
-        let grow = |acc: (DVec3, DVec3, usize), b: &(DVec3, DVec3, usize)| {
+        let grow = |acc: (Vec3, Vec3, usize), b: &(Vec3, Vec3, usize)| {
             (acc.0.min(b.0), acc.1.max(b.1), acc.2 + b.2)
         };
-        let cost = |(a, b, n): (DVec3, DVec3, usize)| area(b - a) * n as f64;
-        let empty = (DVec3::INFINITY, DVec3::NEG_INFINITY, 0);
+        let cost = |(a, b, n): (Vec3, Vec3, usize)| area((b - a).as_dvec3()) * n as f64;
+        let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0);
         let mut above = [0.0; BINS];
         let mut counts = [0; BINS];
         let mut acc = empty;
