@@ -142,10 +142,13 @@ fn refine_chunk<F: Field + ?Sized>(
         open.par_iter_mut()
             .zip(steps.par_iter().zip(values.par_iter()))
             .for_each(|(b, (&t, &g))| b.update(t, g));
-        for b in open.iter().filter(|b| b.done()) {
-            t[b.vertex] = b.final_estimate();
-        }
-        open.retain(|b| !b.done());
+        open.retain(|b| {
+            let done = b.done();
+            if done {
+                t[b.vertex] = b.final_estimate();
+            }
+            !done
+        });
     }
     for b in &open {
         t[b.vertex] = b.final_estimate();
