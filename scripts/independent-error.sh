@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Measures a fit's error independently of the fit's own measures: fits the mesh with the
-# defaults, polygonizes the model on the fit's grid (--mesh-out), samples SAMPLES points
-# (default 1,000,000) on each surface and measures their distance to the other surface with
-# libigl (exact point-to-triangle distance), in voxels of the fit's grid; prints them beside the
-# report's own `mesh_distance` (100,000 samples each way, measured by implicitize) and the
-# difference.
+# defaults, polygonizes the model on the fit's grid (--mesh-out), spreads SAMPLES points
+# (default 1,000,000) by area over each surface (stratified, numpy; scripts/surface_distance.py)
+# and measures their distance to the other surface with libigl (exact point-to-triangle
+# distance), in voxels of the fit's grid; prints them beside the report's own `mesh_distance`
+# (100,000 points each way, spread and measured by implicitize) and the difference.
 #
 # Usage: [IMPLICITIZE=BINARY] [SAMPLES=N] scripts/independent-error.sh [MESH] [RESOLUTION]
 #   default: ../shared/models/bunny.obj at 220 (the paper's volume), the release build.

@@ -321,9 +321,9 @@ impl MeshDistance {
     /// `centre`: the mean of the mesh's vertices.
     fn build(corners: Vec<[DVec3; 3]>, centre: DVec3) -> MeshDistance {
         let (binary, indices) = hierarchy(&corners, LEAF);
-        let triangles: Vec<_> = indices.iter().map(|&t| corners[t as usize]).collect();
+        let triangles: Vec<_> = indices.par_iter().map(|&t| corners[t as usize]).collect();
         drop(corners);
-        let slivers = triangles.iter().map(is_sliver).collect();
+        let slivers = triangles.par_iter().map(is_sliver).collect();
         let bounds = [binary[0].min.as_dvec3(), binary[0].max.as_dvec3()];
         let nodes = widen(&binary);
         MeshDistance {
@@ -354,6 +354,12 @@ impl MeshDistance {
             let oriented = orient_about(&corners, &own, self.centre).triangles;
             self.indices.iter().map(|&t| oriented[t as usize] != own[t as usize]).collect()
         })
+    }
+
+    /// The triangles' corners in the hierarchy's order: a leaf's triangles side by side, and
+    /// neighbouring leaves near each other.
+    pub(crate) fn triangles(&self) -> &[[DVec3; 3]] {
+        &self.triangles
     }
 
     /// The number of triangles.

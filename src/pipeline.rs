@@ -876,23 +876,11 @@ impl<'a> Prepared<'a> {
         let model = Model::from_shape(shape, self.bounds, Some(grid));
         let surface = crate::polygonize::polygonize_field(&model, &grid);
         report.mesh_distance = match &thickened {
-            None => surface_distance::between(
-                self.mesh,
-                &self.query,
-                &surface,
-                grid.voxel_size,
-                options.seed,
-            ),
+            None => surface_distance::between(&self.query, &surface, grid.voxel_size, options.seed),
             Some(thickened) => {
                 let query = MeshDistance::new(thickened)
                     .map_err(|e| e.in_context("the thickened surface"))?;
-                surface_distance::between(
-                    thickened,
-                    &query,
-                    &surface,
-                    grid.voxel_size,
-                    options.seed,
-                )
+                surface_distance::between(&query, &surface, grid.voxel_size, options.seed)
             }
         }
         .map_err(|e| e.in_context("the model's polygonized surface"))?;

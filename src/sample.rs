@@ -167,11 +167,15 @@ impl Surface {
     /// A point uniform on the surface: a triangle chosen by area, a point uniform on it.
     pub(crate) fn point(&self, rng: &mut ChaCha8Rng) -> DVec3 {
         let triangles = self.triangles.as_ref().expect("a surface with area has triangles");
-        let [a, b, c] = self.corners[triangles.sample(rng)];
-        let s = rng.random::<f64>().sqrt();
-        let v = rng.random::<f64>();
-        a * (1.0 - s) + b * (s * (1.0 - v)) + c * (s * v)
+        uniform_on(&self.corners[triangles.sample(rng)], rng)
     }
+}
+
+/// A point uniform on the triangle with corners `a`, `b`, `c`.
+pub(crate) fn uniform_on(&[a, b, c]: &[DVec3; 3], rng: &mut ChaCha8Rng) -> DVec3 {
+    let s = rng.random::<f64>().sqrt();
+    let v = rng.random::<f64>();
+    a * (1.0 - s) + b * (s * (1.0 - v)) + c * (s * v)
 }
 
 /// A point uniform in `room`.
