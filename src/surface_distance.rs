@@ -99,7 +99,7 @@ pub fn between(
 }
 
 /// Triangles whose points [`spread`] draws from one random stream.
-const SPREAD_CHUNK: usize = 1 << 14;
+pub const SPREAD_CHUNK: usize = 1 << 14;
 
 /// `n` points spread by area over `query`'s triangles in its hierarchy's order, stratified:
 /// the triangles laid end to end by area, a point at each of the areas `(offset + k) * A / n`
@@ -124,17 +124,18 @@ pub fn spread(query: &MeshDistance, n: usize, seed: u64) -> Option<Vec<DVec3>> {
     let offset: f64 = ChaCha8Rng::seed_from_u64(seed).random();
     // The number of points before the area `a` (all n before the whole: whole / whole is 1).
     let points_before = |a: f64| ((a / whole * n as f64 - offset).ceil().max(0.0) as usize).min(n);
-    let points = triangles.par_chunks(SPREAD_CHUNK).enumerate().flat_map_iter(|(chunk, corners)| {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        rng.set_stream(chunk as u64 + 1);
-        let mut points = Vec::new();
-        for (t, corners) in (chunk * SPREAD_CHUNK..).zip(corners) {
-            for _ in points_before(before[t])..points_before(before[t + 1]) {
-                points.push(uniform_on(corners, &mut rng));
+    let points =
+        triangles.par_chunks(SPREAD_CHUNK).enumerate().flat_map_iter(|(chunk, corners)| {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(chunk as u64 + 1);
+            let mut points = Vec::new();
+            for (t, corners) in (chunk * SPREAD_CHUNK..).zip(corners) {
+                for _ in points_before(before[t])..points_before(before[t + 1]) {
+                    points.push(uniform_on(corners, &mut rng));
+                }
             }
-        }
-        points
-    });
+            points
+        });
     Some(points.collect())
 }
 
@@ -241,4 +242,3 @@ mod tests {
         assert!(spread(&MeshDistance::new(&flat).unwrap(), 10, 1).is_none());
     }
 }
-
