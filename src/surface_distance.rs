@@ -17,11 +17,12 @@
 //! less from one seed to the next. Over ten seeds, the 99.9th percentile of the bunny's default
 //! model against the mesh (its top 0.1% on the cap that closes the mesh's open base, where the
 //! distances spread from 0 to 11 voxels) ranged over 0.19 voxels spread this way (a standard
-//! deviation of 0.05) and over 0.56 drawn independently (`docs/results.md`). The mesh's points are drawn with the seed, the model's
-//! with the next; the same surfaces and seed give the same figures on any number of threads.
-//! The mean and the 99.9th percentile are those of the samples, the percentile interpolated
-//! between the two nearest ranks (as numpy's default). The largest distance of the samples is
-//! a lower bound of the true largest, which sits at a point the samples may miss.
+//! deviation of 0.05) and over 0.56 drawn independently (`docs/results.md`). The mesh's points
+//! are spread with the seed, the model's with the next; the same surfaces and seed give the
+//! same figures on any number of threads. The mean and the 99.9th percentile are those of the
+//! samples, the percentile interpolated between the two nearest ranks (as numpy's default).
+//! The largest distance of the samples is a lower bound of the true largest, which sits at a
+//! point the samples may miss.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
