@@ -130,7 +130,7 @@ pub use field::Field;
 pub use geometry::{Aabb, DVec3};
 pub use grid::{Grid, Resolution, Volume};
 pub use mesh::Mesh;
-pub use model::Model;
+pub use model::{Model, ModelFormat};
 pub use pipeline::{Fitted, MeshFitOptions, fit_file, fit_mesh};
 pub use polygonize::{polygonize, polygonize_field};
 pub use rbf::{Constraint, ConstraintKind, Implicit, Kernel};

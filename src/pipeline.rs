@@ -48,7 +48,7 @@ use crate::grid::{Grid, Resolution, Units, Values, Volume};
 use crate::memory::{Estimate, MemoryLimit};
 use crate::mesh::{self, Mesh};
 use crate::mesh_distance::{self, MeshDistance, Nearest};
-use crate::model::Model;
+use crate::model::{Model, ModelFormat};
 use crate::rbf::{Implicit, Isa};
 use crate::sample::Samples;
 use crate::shape::Shape;
@@ -102,6 +102,12 @@ pub struct MeshFitOptions {
     /// walls. `None` (default): the solid. Absent from the serialized options when `None`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shell: Option<Shell>,
+    /// A byte budget: the most accurate model whose binary file has at most this many bytes,
+    /// choosing the resolution, the target E and the detail levels (see [`fit()`]); `resolution`
+    /// and `fit.target_error` are then the search's. `None` (default): the fit as set. Absent
+    /// from the serialized options when `None`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_bytes: Option<u64>,
     /// The memory the fit may use.
     #[serde(skip)]
     pub memory_limit: MemoryLimit,
@@ -116,6 +122,12 @@ impl MeshFitOptions {
     pub fn check(&self) -> Result<()> {
         self.fit.check()?;
         self.voxelize.check()?;
+        if self.max_bytes.is_some() && self.method == Method::Naive {
+            return Err(Error::invalid(
+                "options",
+                "`max_bytes` chooses among iterative fits; it does not apply to `method` naive",
+            ));
+        }
         self.shell.map_or(Ok(()), Shell::check)
     }
 }
@@ -290,8 +302,11 @@ pub struct PolygonizeOptions {
 #[derive(Debug, Clone, Default, PartialEq)]
 #[non_exhaustive]
 pub struct FitOutputs {
-    /// The model file (JSON, with the report embedded without its running times).
+    /// The model file: binary, or JSON with the report embedded without its running times
+    /// (see `model_format`).
     pub model: Option<PathBuf>,
+    /// The model file's format; None: told by its name ([`ModelFormat::for_path`]).
+    pub model_format: Option<ModelFormat>,
     /// The fit report (JSON: the paper's Table 1 and 2 columns, per iteration too).
     pub report: Option<PathBuf>,
     /// The model's zero set polygonized on the fit's grid (OBJ, PLY, STL or OFF).
@@ -418,17 +433,144 @@ pub fn fit(
 ) -> Result<Fitted> {
     outputs.check()?;
     options.check()?;
-    let (mesh, name, bytes) = source.read()?;
-    let prepared = Prepared::new(&mesh, &name, options)?;
-    observer.prepared(&prepared);
-    if let Some(path) = &outputs.sdf {
-        prepared.goal().sd().save_npy(path, &Values::VOXELS)?;
+    if options.max_bytes.is_some() && outputs.sdf.is_some() {
+        return Err(Error::invalid(
+            "options",
+            "a byte budget tries several grids: write the signed distance without `max_bytes`",
+        ));
     }
-    let mut fitted = prepared.fit(|report, implicit| observer.iteration(report, implicit))?;
+    let (mesh, name, bytes) = source.read()?;
+    let mut fitted = match options.max_bytes {
+        Some(budget) => fit_within_bytes(&mesh, &name, options, budget, observer)?,
+        None => {
+            let prepared = Prepared::new(&mesh, &name, options)?;
+            observer.prepared(&prepared);
+            if let Some(path) = &outputs.sdf {
+                prepared.goal().sd().save_npy(path, &Values::VOXELS)?;
+            }
+            prepared.fit(|report, implicit| observer.iteration(report, implicit))?
+        }
+    };
     fitted.report.mesh_bytes = bytes;
     fitted.finish();
     fitted.write(outputs)?;
     Ok(fitted)
+}
+
+/// The smallest resolution a byte budget tries.
+const BUDGET_MIN_RESOLUTION: usize = 24;
+
+/// The resolution and target E of the fits with detail levels a byte budget tries, most
+/// accurate (and largest) first.
+const BUDGET_LEVELS: [(usize, f32); 3] = [(512, 1.0), (512, 2.0), (512, 4.0)];
+
+/// The most accurate fit of `mesh` whose binary model file is at most `budget` bytes (see
+/// [`MeshFitOptions::max_bytes`]): the fit at the default resolution and target first; above
+/// the budget, fits at resolutions shrunk by the square root of the ratio of bytes (a model's
+/// size goes with its surface's area in voxels) until one is within it; within it, fits with
+/// detail levels at the targets of [`BUDGET_LEVELS`] and one at the resolution the ratio
+/// suggests, each kept if within the budget. Of those within it, the one whose surface is
+/// nearest the mesh (the mean of its report's two mean distances) is returned, its report's
+/// `byte_budget` listing every fit tried.
+///
+/// # Errors
+/// A budget below the smallest model, naming its size; the errors of the first fit.
+fn fit_within_bytes(
+    mesh: &Mesh,
+    name: &str,
+    options: &MeshFitOptions,
+    budget: u64,
+    observer: &mut dyn FitObserver,
+) -> Result<Fitted> {
+    let mut search = BudgetSearch { mesh, name, options, observer, tried: Vec::new() };
+    let default_resolution = Resolution::DEFAULT_LONGEST_AXIS;
+    let first = search.try_fit(default_resolution, FitOptions::default().target_error)?;
+    let mut best = (0, first);
+    if search.tried[0].bytes > budget {
+        let mut resolution = default_resolution;
+        while resolution > BUDGET_MIN_RESOLUTION {
+            let last = search.tried.last().expect("one fit at least").bytes;
+            let ratio = (budget as f64 / last as f64).sqrt() * 0.95;
+            resolution = ((resolution as f64 * ratio) as usize).max(BUDGET_MIN_RESOLUTION);
+            let fitted = search.try_fit(resolution, FitOptions::default().target_error)?;
+            best = (search.tried.len() - 1, fitted);
+            if search.tried[best.0].bytes <= budget {
+                break;
+            }
+        }
+        let smallest = search.tried.iter().min_by_key(|t| t.bytes).expect("one fit at least");
+        if smallest.bytes > budget {
+            return Err(Error::invalid(
+                name,
+                format!(
+                    "no model fits in {budget} bytes: the smallest is {} bytes (at resolution                      {}); give `max_bytes` {} or more",
+                    smallest.bytes, smallest.resolution, smallest.bytes
+                ),
+            ));
+        }
+    } else {
+        let ratio = (budget as f64 / search.tried[0].bytes as f64).sqrt() * 0.9;
+        let larger = (default_resolution as f64 * ratio) as usize;
+        let min_levels_axis = options.fit.levels.min_axis;
+        let mut trials: Vec<(usize, f32)> = BUDGET_LEVELS.to_vec();
+        if larger > default_resolution * 11 / 10 {
+            trials.push((larger.min(min_levels_axis - 1), FitOptions::default().target_error));
+        }
+        for (resolution, target) in trials {
+            // A larger grid the memory limit refuses, or whose fit fails, is not a candidate.
+            let Ok(fitted) = search.try_fit(resolution, target) else { continue };
+            let trial = search.tried.last().expect("just tried");
+            let chosen = &search.tried[best.0];
+            if trial.bytes <= budget && trial.mean_distance < chosen.mean_distance {
+                best = (search.tried.len() - 1, fitted);
+            }
+            if trial.bytes <= budget && trial.levels > 0 {
+                // The first fit with levels within the budget is the most accurate of them.
+                break;
+            }
+        }
+    }
+    let (chosen, mut fitted) = best;
+    fitted.report.byte_budget = Some(fit::ByteBudget { max_bytes: budget, tried: search.tried, chosen });
+    Ok(fitted)
+}
+
+/// The fits a byte budget has tried.
+struct BudgetSearch<'a, 'o> {
+    mesh: &'a Mesh,
+    name: &'a str,
+    options: &'a MeshFitOptions,
+    observer: &'o mut dyn FitObserver,
+    tried: Vec<fit::BudgetTrial>,
+}
+
+impl BudgetSearch<'_, '_> {
+    /// The fit at `resolution` voxels along the longest axis to `target` E, recorded in `tried`
+    /// whether within the budget or not.
+    fn try_fit(&mut self, resolution: usize, target: f32) -> Result<Fitted> {
+        let mut options = self.options.clone();
+        options.max_bytes = None;
+        options.resolution = Resolution::LongestAxis(resolution);
+        options.fit.target_error = target;
+        let prepared = Prepared::new(self.mesh, self.name, &options)?;
+        if self.tried.is_empty() {
+            self.observer.prepared(&prepared);
+        }
+        let observer = &mut *self.observer;
+        let fitted = prepared.fit(|report, implicit| observer.iteration(report, implicit))?;
+        let voxel = fitted.report.voxel_size;
+        let mean_distance = fitted.report.mesh_distance.map_or(f64::INFINITY, |d| {
+            (d.mesh_to_model.mean + d.model_to_mesh.mean) / 2.0 * voxel
+        });
+        self.tried.push(fit::BudgetTrial {
+            resolution,
+            target_error_voxels: target,
+            levels: fitted.report.levels.as_ref().map_or(0, |l| l.levels.len()),
+            bytes: fitted.model.to_bytes().len() as u64,
+            mean_distance,
+        });
+        Ok(fitted)
+    }
 }
 
 /// Fits `mesh` as `options` say and writes nothing: [`fit()`] on a mesh in memory.
@@ -936,13 +1078,13 @@ impl Fitted {
         warnings(&self.inside, self.report.thickness.as_ref(), shell, self.report.dims)
     }
 
-    /// Embeds the report in the model as the model file keeps it, and records the file's size
-    /// in the report (`model_bytes`: the size without the embedded report).
+    /// Embeds the report in the model as the JSON model file keeps it, and records the size of
+    /// the binary model file in the report (`model_bytes`).
     ///
     /// The embedded report leaves out the running times, so that the same mesh, options and
     /// seed give the same model file byte for byte; [`Fitted::report`] keeps them.
     pub fn finish(&mut self) {
-        self.report.model_bytes = Some(self.model.to_json().len() as u64);
+        self.report.model_bytes = Some(self.model.to_bytes().len() as u64);
         self.model.set_report(without_timings(&self.report));
     }
 
@@ -953,7 +1095,8 @@ impl Fitted {
     /// A file that cannot be written.
     pub fn write(&self, outputs: &FitOutputs) -> Result<()> {
         if let Some(path) = &outputs.model {
-            self.model.save(path)?;
+            let format = outputs.model_format.unwrap_or_else(|| ModelFormat::for_path(path));
+            self.model.save_as(path, format)?;
         }
         if let Some(path) = &outputs.report {
             let report =

@@ -182,6 +182,35 @@ fn the_model_file_keeps_levels_in_version_2() {
     assert!(message.contains("detail levels in a version 1 model file"), "{message}");
 }
 
+/// The fit stores its functions on lattices (level 0 and every level), so the binary file holds
+/// them as integers: a fraction of the JSON's size, read back bit for bit, from the binary file
+/// and from the JSON one, which keeps the lattices.
+#[test]
+fn the_binary_file_stores_the_lattices_compactly_and_exactly() {
+    let model = &fitted().model;
+    assert!(levels().base().lattice().is_some());
+    assert!(levels().levels().iter().all(|l| l.lattice().is_some()));
+    let bytes = model.to_bytes();
+    let json = model.to_json();
+    let centres = levels().base().len()
+        + levels().levels().iter().map(|l| l.centres().len()).sum::<usize>();
+    // Raw f32, four numbers a centre, would be 16 bytes a centre.
+    assert!(bytes.len() < centres * 8, "{} bytes for {centres} centres", bytes.len());
+    assert!(bytes.len() * 20 < json.len(), "{} against {}", bytes.len(), json.len());
+    let dir = tempfile::tempdir().unwrap();
+    let (binary, text) = (dir.path().join("levels.imp"), dir.path().join("levels.json"));
+    model.save(&binary).unwrap();
+    model.save(&text).unwrap();
+    let points = random_points(&model.bounds(), 0.1, 500, 13);
+    for path in [&binary, &text] {
+        let loaded = Model::load(path).unwrap();
+        for &p in &points {
+            assert_eq!(loaded.value(p).to_bits(), model.value(p).to_bits(), "{}", path.display());
+        }
+        assert_eq!(loaded.to_bytes(), bytes, "{} written as binary", path.display());
+    }
+}
+
 /// Shaders (and so the viewer) read a model with levels: the WGSL validates, each level is
 /// read through the grid index of its supports, and the texture holds level 0's centres, then
 /// each level's centres, cell starts and entries. The variational morph refuses it in one line

@@ -46,7 +46,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::report::{FitReport, GridLevel, IterationReport, Termination, Timings};
-use super::{FitOptions, Goal, Log, coarse};
+use super::{FitOptions, Goal, Log, coarse, compact};
 use crate::error::Result;
 use crate::field::Field;
 use crate::geometry::DVec3;
@@ -216,6 +216,9 @@ pub fn fit(
     let goal_level = level_of(goal.grid(), grid);
     let (stage, base_grid) = fit_base(goal, goal_level, options, &mut log, on_iteration)?;
     goal.free_densities();
+    let base_lattice_grid =
+        Grid { dims: base_grid.0, origin: grid.origin, voxel_size: base_grid.1 };
+    let implicit = compact::implicit(stage.implicit, &base_lattice_grid, &options.precision)?;
     let voxel = grid.voxel_size;
     let base_e = f64::from(stage.metrics.max_error_subvoxel) * base_grid.1 / voxel;
     let first_radius = options.levels.first_radius * base_grid.1;
@@ -223,7 +226,7 @@ pub fn fit(
     let points = data_points(goal);
     let targets = vec![0.0; points.len()];
     let base = Base {
-        implicit: stage.implicit,
+        implicit,
         dims: base_grid.0,
         best_iteration: stage.best_iteration,
         termination: stage.termination,
@@ -298,7 +301,8 @@ pub fn fit_shell(
     let log = Log { per_iteration: Vec::new(), totals: Timings::default() };
     let grid = *goal.grid();
     let voxel = grid.voxel_size;
-    let implicit = constant(&grid, -half_voxels * voxel)?;
+    let implicit =
+        compact::implicit(constant(&grid, -half_voxels * voxel)?, &grid, &options.precision)?;
     let mut points: Vec<DVec3> = goal.surface().par_iter().map(|&p| grid.to_world(p)).collect();
     let mut targets = vec![0.0; points.len()];
     let interior = points.len();
@@ -404,9 +408,17 @@ fn add_levels(
         if chosen.is_empty() {
             break;
         }
-        let centres: Vec<DVec3> = chosen.iter().map(|&i| candidates[i]).collect();
+        let lattice = compact::level_lattice(radius, grid, &options.precision);
+        let (centres, chosen) = match &lattice {
+            Some(lattice) => compact::snap_centres(&candidates, &chosen, lattice),
+            None => (chosen.iter().map(|&i| candidates[i]).collect(), chosen),
+        };
         let values: Vec<f64> = chosen.iter().map(|&i| errors[i] * voxel).collect();
         let (level, solve) = DetailLevel::interpolate(radius, centres, &values)?;
+        let level = match lattice {
+            Some(lattice) => compact::round_level(level, lattice),
+            None => level,
+        };
         residual.par_iter_mut().zip(&points).for_each(|(r, &p)| *r -= level.value(p) / voxel);
         off.add(&level);
         let (max_error_voxels, p999_error_voxels) = error_figures(&residual);

@@ -19,6 +19,7 @@
 //! same constraints in voxels. The best model by E, then RMS, is kept, not the last.
 
 mod coarse;
+mod compact;
 mod goal;
 mod init;
 pub mod levels;
@@ -42,8 +43,9 @@ use crate::rbf::{self, Implicit, Kernel};
 
 pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
+pub use compact::Precision;
 pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport};
-pub use report::{ConstraintCounts, FitReport, GridLevel, IterationReport, Termination, Timings};
+pub use report::{BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, Termination, Timings};
 pub use thickness::Thickness;
 
 /// Every threshold of the fit, with the paper's values as defaults where the paper gives one.
@@ -138,6 +140,8 @@ pub struct FitOptions {
     pub regularity: RegularityOptions,
     /// Detail levels over the fit on large grids (see `levels.rs`).
     pub levels: LevelOptions,
+    /// How finely the fit stores its functions (see `compact.rs`).
+    pub precision: compact::Precision,
 }
 
 impl Default for FitOptions {
@@ -168,6 +172,7 @@ impl Default for FitOptions {
             kernel: Kernel::default(),
             regularity: RegularityOptions::default(),
             levels: LevelOptions::default(),
+            precision: compact::Precision::default(),
         }
     }
 }
@@ -275,9 +280,39 @@ pub fn fit(
     let grid = *goal.grid();
     let mut log = Log { per_iteration: Vec::new(), totals: Timings::default() };
     let stage = fit_level(goal, options, GridLevel::Full, &mut log, &mut on_iteration)?;
+    let clock = Instant::now();
+    let (implicit, metrics) = stored(goal, stage.implicit, stage.metrics, options, &mut log)?;
+    log.totals.misc += clock.elapsed().as_secs_f64();
     log.totals.total = started.elapsed().as_secs_f64();
-    let report = report_of(&grid, &stage.metrics, stage.best_iteration, stage.termination, log);
-    Ok(Fit { implicit: stage.implicit, report })
+    let report = report_of(&grid, &metrics, stage.best_iteration, stage.termination, log);
+    Ok(Fit { implicit, report })
+}
+
+/// The model as stored, and its figures: `implicit` (which measured `metrics`) made compact
+/// ([`compact::implicit`]) and measured again, at finer precisions while that takes its E above
+/// both the target and its own E before (rounding can tip a voxel's side), and as it is after
+/// [`compact::Precision::TRIES`] such tries.
+fn stored(
+    goal: &Goal,
+    implicit: Implicit,
+    metrics: ErrorMetrics,
+    options: &FitOptions,
+    log: &mut Log,
+) -> Result<(Implicit, ErrorMetrics)> {
+    let allowed = options.error_measure.of(&metrics).max(options.target_error);
+    let mut precision = options.precision.clone();
+    for _ in 0..compact::Precision::TRIES {
+        let compact = compact::implicit(implicit.clone(), goal.grid(), &precision)?;
+        if compact.lattice().is_none() {
+            break;
+        }
+        let measured = measure(goal, &compact, options, &mut log.totals).metrics;
+        if options.error_measure.of(&measured) <= allowed {
+            return Ok((compact, measured));
+        }
+        precision = precision.finer();
+    }
+    Ok((implicit, metrics))
 }
 
 /// The report of a fit on `grid` whose kept model measured `metrics`, from `log`.
@@ -313,6 +348,7 @@ fn report_of(
         shell_voxels: None,
         levels: None,
         mesh_distance: None,
+        byte_budget: None,
     }
 }
 

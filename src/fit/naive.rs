@@ -57,6 +57,7 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
         shell_voxels: None,
         levels: None,
         mesh_distance: None,
+        byte_budget: None,
     };
     Ok(super::Fit { implicit, report })
 }

@@ -304,6 +304,38 @@ pub struct FitReport {
     /// ([`crate::surface_distance`]); `None` for a goal given as densities, or where either
     /// surface has no area.
     pub mesh_distance: Option<MeshDistances>,
+    /// For a fit under a byte budget (`max_bytes`), what was chosen and what was tried; absent
+    /// otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub byte_budget: Option<ByteBudget>,
+}
+
+/// What a fit under a byte budget chose: the most accurate of the fits it tried whose binary
+/// model file is within the budget.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ByteBudget {
+    /// The budget: the most bytes the model file may have.
+    pub max_bytes: u64,
+    /// The fits tried, in order; the chosen one is `chosen`.
+    pub tried: Vec<BudgetTrial>,
+    /// The index in `tried` of the fit kept.
+    pub chosen: usize,
+}
+
+/// One fit tried under a byte budget.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BudgetTrial {
+    /// Voxels along the grid's longest axis.
+    pub resolution: usize,
+    /// The target E, voxels of that grid.
+    pub target_error_voxels: f32,
+    /// Detail levels the model has (0: the paper's single function).
+    pub levels: usize,
+    /// The binary model file's size.
+    pub bytes: u64,
+    /// The mean of the two mean distances between the model's surface and the mesh, mesh
+    /// units (the report's `mesh_distance`): how the fits are compared.
+    pub mean_distance: f64,
 }
 
 impl FitReport {

@@ -33,6 +33,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use rayon::prelude::*;
 
+use super::lattice::Lattice;
 use crate::error::{Error, Result};
 use crate::geometry::{DVec3, MORTON_BITS, morton_key};
 
@@ -323,8 +324,14 @@ fn morton_order(centres: &[DVec3], side: f64) -> Vec<usize> {
         let q = ((c - lo) / side).floor().clamp(DVec3::ZERO, DVec3::splat(top));
         morton_key([q.x as u64, q.y as u64, q.z as u64])
     };
+    // Ties (centres in one cell) are broken by the coordinates, so that the order depends on
+    // the set of centres alone, not on the order they came in: a level read from a file whose
+    // centres come in another order sums in the same order as the one written.
     let mut order: Vec<usize> = (0..centres.len()).collect();
-    order.sort_by_cached_key(|&i| key(centres[i]));
+    order.sort_by_cached_key(|&i| {
+        let c = centres[i];
+        (key(c), [c.x, c.y, c.z].map(|v| v.to_bits()))
+    });
     order
 }
 
@@ -343,6 +350,8 @@ pub struct DetailLevel {
     centres: Vec<DVec3>,
     weights: Vec<f64>,
     index: SupportIndex,
+    /// The lattice its centres and weights lie on, when it was made compact.
+    lattice: Option<Lattice>,
 }
 
 /// What [`DetailLevel::interpolate`] reports of its solve.
@@ -388,7 +397,7 @@ impl DetailLevel {
         let centres: Vec<DVec3> = order.iter().map(|&i| centres[i]).collect();
         let weights = order.iter().map(|&i| weights[i]).collect();
         let index = SupportIndex::new(&centres, radius);
-        Ok(DetailLevel { radius, centres, weights, index })
+        Ok(DetailLevel { radius, centres, weights, index, lattice: None })
     }
 
     /// The level through `values` at `centres` (distinct points, mesh units) with support
@@ -422,6 +431,26 @@ impl DetailLevel {
         let worst = fitted.iter().zip(&values).map(|(f, v)| (f - v).abs()).fold(0.0f64, f64::max);
         let residual = if largest > 0.0 { worst / largest } else { worst };
         Ok((level, SparseSolve { iterations, entries: matrix.values.len(), residual }))
+    }
+
+    /// The lattice its centres and weights lie on, when the fit made it compact (see
+    /// [`Lattice`]).
+    pub fn lattice(&self) -> Option<&Lattice> {
+        self.lattice.as_ref()
+    }
+
+    /// The same level, declared to lie on `lattice` (not checked here: a model file that finds
+    /// a number off it stores the numbers as they are).
+    pub(crate) fn on_lattice(mut self, lattice: Lattice) -> DetailLevel {
+        self.lattice = Some(lattice);
+        self
+    }
+
+    /// The same level with `weights` in place of its own (in its order).
+    pub(crate) fn with_weights(mut self, weights: Vec<f64>) -> DetailLevel {
+        debug_assert_eq!(weights.len(), self.weights.len());
+        self.weights = weights;
+        self
     }
 
     /// The support radius, mesh units.

@@ -82,6 +82,7 @@ mod grid;
 mod isa;
 mod iterative;
 mod kernel;
+mod lattice;
 mod schwarz;
 mod solve;
 mod treecode;
@@ -97,6 +98,8 @@ pub use csv::{read_constraints, read_constraints_bytes, read_points, read_points
 pub use grid::evaluate_on_grid;
 pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};
 pub use kernel::Kernel;
+pub use lattice::Lattice;
+pub(crate) use lattice::{extent as lattice_extent, morton_order as lattice_order};
 pub use solve::{DIRECT_MAX, MAX_RESIDUAL, MIN_SEPARATION};
 
 /// What a constraint asks of the surface, read from the sign of its value (paper 3.1).
@@ -173,6 +176,8 @@ pub struct Implicit {
     /// `p_0`, then one coefficient per axis, in normalized coordinates.
     polynomial: Vec<f64>,
     residual: f64,
+    /// The lattice its centres, weights and values lie on, when it was made compact.
+    lattice: Option<Lattice>,
 }
 
 /// The map from the mesh's units to the normalized coordinates the function is solved in:
@@ -245,6 +250,19 @@ impl Implicit {
     /// The polynomial in normalized coordinates: the constant, then one coefficient per axis.
     pub fn polynomial(&self) -> &[f64] {
         &self.polynomial
+    }
+
+    /// The lattice its centres, weights and values lie on, when the fit made it compact (see
+    /// [`Lattice`]): what lets a binary model file store them as small integers.
+    pub fn lattice(&self) -> Option<&Lattice> {
+        self.lattice.as_ref()
+    }
+
+    /// The same function, declared to lie on `lattice` (not checked here: a model file that
+    /// finds a number off it stores the numbers as they are).
+    pub(crate) fn on_lattice(mut self, lattice: Lattice) -> Implicit {
+        self.lattice = Some(lattice);
+        self
     }
 
     /// The value at `x` (`dim` coordinates in the mesh's units): positive inside, negative
@@ -361,6 +379,7 @@ impl Implicit {
             weights,
             polynomial,
             residual,
+            lattice: None,
         })
     }
 }

@@ -126,6 +126,7 @@ impl Implicit {
             weights: solution[..n].to_vec(),
             polynomial: solution[n..].to_vec(),
             residual: f64::NAN,
+            lattice: None,
         };
         implicit.residual = interpolation_residual(&implicit);
         if implicit.residual.is_nan() || implicit.residual > MAX_RESIDUAL {

@@ -8,7 +8,7 @@ use implicitize::fit::{
     ErrorMeasure, FitOptions, IterationReport, LevelOptions, MAX_CONSTRAINTS, naive,
 };
 use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
-use implicitize::{Implicit, mesh, output};
+use implicitize::{Implicit, ModelFormat, mesh, output};
 
 use super::common::{GridArgs, Progress, memory_limit, read_mesh, warn};
 use super::render::{Snapshots, compare_picture};
@@ -20,6 +20,24 @@ pub enum Method {
     Iterative,
     /// The paper's simple method (section 3.2): mesh vertices and normal offsets.
     Naive,
+}
+
+/// The formats of a model file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ModelFileFormat {
+    /// The compact binary model (numbers on a lattice, entropy-coded; no report).
+    Binary,
+    /// Versioned JSON with the fit report embedded.
+    Json,
+}
+
+impl From<ModelFileFormat> for ModelFormat {
+    fn from(format: ModelFileFormat) -> ModelFormat {
+        match format {
+            ModelFileFormat::Binary => ModelFormat::Binary,
+            ModelFileFormat::Json => ModelFormat::Json,
+        }
+    }
 }
 
 /// The `--max-constraints` help, with the library's limits.
@@ -92,6 +110,13 @@ pub struct FitArgs {
     /// voxels (as 2) or in mesh units with the suffix u (as 0.01u)
     #[arg(long, value_name = "T")]
     pub shell: Option<String>,
+    /// Write the most accurate model whose binary file has at most N bytes: fits at the
+    /// default resolution, then at smaller or larger ones and with detail levels, and keeps
+    /// the nearest to the mesh within N (the report's byte_budget lists them); --resolution
+    /// and --target-error are then the search's. A budget below the smallest model is refused,
+    /// naming its size
+    #[arg(long, value_name = "N")]
+    pub max_bytes: Option<u64>,
 }
 
 impl FitArgs {
@@ -110,6 +135,7 @@ impl FitArgs {
         self.settings.apply(&mut options.fit);
         options.fit.coarse_start = !self.full_resolution;
         options.fit.levels.max_levels = self.levels;
+        options.max_bytes = self.max_bytes;
         options.memory_limit = memory_limit();
         Ok(options)
     }
@@ -120,9 +146,14 @@ impl FitArgs {
 pub struct FitCommand {
     /// The mesh (OBJ, PLY, STL or OFF).
     pub mesh: PathBuf,
-    /// The model file to write (JSON).
+    /// The model file to write: the compact binary format, or JSON for a name ending in .json
+    /// (or with --format json); every command reads both.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// The model file's format, whatever its name [default: json for a name ending in .json,
+    /// binary otherwise].
+    #[arg(long, value_enum)]
+    pub format: Option<ModelFileFormat>,
     /// Also write the fit report (JSON: the paper's Table 1 and 2 columns, per iteration too).
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -170,6 +201,7 @@ pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
     }
     let mut outputs = FitOutputs::default();
     outputs.model = Some(args.output.clone());
+    outputs.model_format = args.format.map(ModelFormat::from);
     outputs.report = args.report.clone();
     outputs.surface = args.mesh_out.clone();
     outputs.check()?;

@@ -1,7 +1,10 @@
-//! The model file: a fitted implicit surface as versioned JSON.
+//! The model file: a fitted implicit surface, as a compact binary file or as versioned JSON.
 //!
-//! A model is what the fit produces and what `eval`, polygonization and rendering read. The
-//! file is JSON:
+//! A model is what the fit produces and what `eval`, polygonization and rendering read. It is
+//! written in one of two formats ([`ModelFormat`]): the binary one (`binary.rs`: the numbers
+//! on a lattice as entropy-coded integers, no report), which [`Model::save`] writes to any
+//! path not ending in `.json`, and JSON. [`Model::load`] reads both, whatever the file's name,
+//! and a model read from either evaluates bit for bit as the one written. The JSON file is:
 //!
 //! ```text
 //! {
@@ -20,7 +23,8 @@
 //!     "normalization": { "translate": [..], "scale": s },
 //!     "weights": [d, ...],
 //!     "polynomial": [p0, p1, ...],
-//!     "residual": r
+//!     "residual": r,
+//!     "lattice": { "origin": [..], "cell": c, "weight_step": w, "value_step": v }  // optional
 //!   },
 //!   "report": { ... } | null                  // the fit report, free form
 //! }
@@ -50,7 +54,8 @@
 //!     "type": "levels",
 //!     "base": { "kernel": "r2logr", "dimension": 3, "centres": ..., ... },   // as "rbf"
 //!     "levels": [
-//!       { "radius": rho, "centres": [[x, y, z], ...], "weights": [w, ...] },  // mesh units
+//!       { "radius": rho, "centres": [[x, y, z], ...], "weights": [w, ...],    // mesh units
+//!         "lattice": { ... } },                                                  // optional
 //!       ...
 //!     ]
 //!   }
@@ -74,6 +79,9 @@
 //! form that reads back to the same f64 (and read with correct rounding), so saving and loading
 //! reproduces every weight bit for bit.
 
+mod binary;
+mod octree;
+
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -84,7 +92,9 @@ use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
 use crate::grid::Grid;
 use crate::levels::MultiScale;
-use crate::rbf::{Constraint, ConstraintKind, DetailLevel, Implicit, Kernel, Normalization};
+use crate::rbf::{
+    Constraint, ConstraintKind, DetailLevel, Implicit, Kernel, Lattice, Normalization,
+};
 use crate::shape::Shape;
 
 /// The `format` field of every model file.
@@ -99,6 +109,26 @@ const VERSION_WITHOUT_LEVELS: u32 = 1;
 
 /// The `sign` field: the sign convention of every value the model gives.
 pub const SIGN: &str = "inside positive, outside negative";
+
+pub use binary::{MAGIC as BINARY_MAGIC, VERSION as BINARY_VERSION};
+
+/// The two formats of a model file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModelFormat {
+    /// The compact binary file (see the module doc): what the fit writes by default.
+    Binary,
+    /// Versioned JSON, with the fit report embedded.
+    Json,
+}
+
+impl ModelFormat {
+    /// The format a file named `path` is written in: JSON for a name ending in `.json` (in any
+    /// case), binary for any other.
+    pub fn for_path(path: &Path) -> ModelFormat {
+        let json = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
+        if json { ModelFormat::Json } else { ModelFormat::Binary }
+    }
+}
 
 /// A fitted shape with its bounds, the grid it was fitted on and the fit report.
 #[derive(Debug, Clone)]
@@ -188,16 +218,48 @@ impl Model {
             + "\n"
     }
 
-    /// Writes the model as JSON to `path`, atomically ([`crate::output`]).
-    pub fn save(&self, path: &Path) -> Result<()> {
-        crate::output::write_bytes(path, self.to_json().as_bytes())
+    /// The binary model file's contents, exactly what [`Model::save`] writes to a path not
+    /// ending in `.json` (no report: see the module doc).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        binary::encode(&self.shape, &self.bounds, self.grid.as_ref())
     }
 
-    /// Reads a model from `path`. A file that is not JSON, not a model, of another version, or
-    /// whose parts do not fit together gives an error naming the file.
+    /// The file's contents in `format`.
+    pub fn to_format(&self, format: ModelFormat) -> Vec<u8> {
+        match format {
+            ModelFormat::Binary => self.to_bytes(),
+            ModelFormat::Json => self.to_json().into_bytes(),
+        }
+    }
+
+    /// Writes the model to `path`, atomically ([`crate::output`]): as JSON when the name ends
+    /// in `.json`, in the binary format otherwise ([`ModelFormat::for_path`]).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        self.save_as(path, ModelFormat::for_path(path))
+    }
+
+    /// Writes the model to `path` in `format`, atomically, whatever the file's name.
+    pub fn save_as(&self, path: &Path, format: ModelFormat) -> Result<()> {
+        crate::output::write_bytes(path, &self.to_format(format))
+    }
+
+    /// Reads a model from `path`, binary or JSON (told by its first bytes, not its name). A
+    /// file that is neither, not a model, of another version, damaged, or whose parts do not
+    /// fit together gives an error naming the file.
     pub fn load(path: &Path) -> Result<Model> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-        Model::from_json(&bytes, path)
+        Model::from_file_bytes(&bytes, path)
+    }
+
+    /// Reads a model from the contents of a model file in either format; `path` names it in
+    /// errors. The checks are those of [`Model::load`].
+    pub fn from_file_bytes(bytes: &[u8], path: &Path) -> Result<Model> {
+        if bytes.starts_with(binary::MAGIC) {
+            let (shape, bounds, grid) = binary::decode(bytes, path)?;
+            Ok(Model { shape, bounds, grid, report: None })
+        } else {
+            Model::from_json(bytes, path)
+        }
     }
 
     /// Reads a model from the contents of a model file; `path` names it in errors (the file
@@ -364,6 +426,43 @@ struct LevelFile {
     radius: f64,
     centres: Vec<[f64; 3]>,
     weights: Vec<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    lattice: Option<LatticeFile>,
+}
+
+/// A compact function's lattice ([`Lattice`]), kept in JSON so that a model read from JSON
+/// writes the binary file as compactly as the fit's.
+#[derive(Serialize, Deserialize, Clone, Copy)]
+#[serde(deny_unknown_fields)]
+struct LatticeFile {
+    origin: [f64; 3],
+    cell: f64,
+    weight_step: f64,
+    value_step: f64,
+}
+
+impl LatticeFile {
+    fn of(lattice: Option<&Lattice>) -> Option<LatticeFile> {
+        lattice.map(|l| LatticeFile {
+            origin: l.origin.to_array(),
+            cell: l.cell,
+            weight_step: l.weight_step,
+            value_step: l.value_step,
+        })
+    }
+
+    fn into_lattice(self, context: &str) -> Result<Lattice> {
+        let lattice = Lattice {
+            origin: DVec3::from_array(self.origin),
+            cell: self.cell,
+            weight_step: self.weight_step,
+            value_step: self.value_step,
+        };
+        if !lattice.is_valid() {
+            return Err(Error::invalid(context, "a lattice step is not finite and positive"));
+        }
+        Ok(lattice)
+    }
 }
 
 impl LevelsFile {
@@ -377,6 +476,7 @@ impl LevelsFile {
                     radius: l.radius(),
                     centres: l.centres().iter().map(|c| c.to_array()).collect(),
                     weights: l.weights().to_vec(),
+                    lattice: LatticeFile::of(l.lattice()),
                 })
                 .collect(),
         }
@@ -391,7 +491,11 @@ impl LevelsFile {
             .map(|(i, l)| {
                 let here = format!("{context}: level {}", i + 1);
                 let centres = l.centres.into_iter().map(DVec3::from_array).collect();
-                DetailLevel::new(&here, l.radius, centres, l.weights)
+                let level = DetailLevel::new(&here, l.radius, centres, l.weights)?;
+                Ok(match l.lattice {
+                    Some(lattice) => level.on_lattice(lattice.into_lattice(&here)?),
+                    None => level,
+                })
             })
             .collect::<Result<Vec<_>>>()?;
         MultiScale::new(context, base, levels)
@@ -458,6 +562,8 @@ struct RbfFile {
     weights: Vec<f64>,
     polynomial: Vec<f64>,
     residual: f64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    lattice: Option<LatticeFile>,
 }
 
 impl RbfFile {
@@ -473,6 +579,7 @@ impl RbfFile {
             weights: implicit.weights().to_vec(),
             polynomial: implicit.polynomial().to_vec(),
             residual: implicit.residual(),
+            lattice: LatticeFile::of(implicit.lattice()),
         }
     }
 
@@ -502,7 +609,8 @@ impl RbfFile {
         }
         let constraints =
             self.centres.iter().zip(&self.values).map(|(c, &v)| Constraint::new(c, v)).collect();
-        Implicit::from_parts(
+        let lattice = self.lattice.map(|l| l.into_lattice(context)).transpose()?;
+        let implicit = Implicit::from_parts(
             context,
             self.dimension,
             self.kernel,
@@ -511,6 +619,10 @@ impl RbfFile {
             self.weights,
             self.polynomial,
             self.residual,
-        )
+        )?;
+        Ok(match lattice {
+            Some(lattice) => implicit.on_lattice(lattice),
+            None => implicit,
+        })
     }
 }
