@@ -65,6 +65,9 @@ PY
                     --blend 0.1 -o "$corpus/union.json" --quiet
                 target/release/implicitize csg difference "$corpus/union.json" "$corpus/ball.json" \
                     -o "$corpus/difference.json" --quiet
+                target/release/implicitize solve "$tmp/ball.csv" -o "$corpus/ball.imp" --quiet
+                target/release/implicitize fit data/triceratops.obj --resolution 48 \
+                    -o "$corpus/triceratops.imp" --quiet
             fi ;;
         *) echo "unknown target $target: one of ${targets[*]} or all" >&2; exit 2 ;;
     esac

@@ -11,7 +11,7 @@
 //!
 //! # Files
 //! For a mesh named `NAME` (its file's stem; `NAME-2`, `NAME-3`... for later meshes of the
-//! same stem): `NAME.json` (the model, the file `implicitize fit -o` writes), `NAME.report.json`,
+//! same stem): `NAME.imp` (the model, the file `implicitize fit -o` writes), `NAME.report.json`,
 //! with `sdf` also `NAME.sdf.npy` and `NAME.sdf.json` (as `implicitize sdf`), with `samples`
 //! also `NAME.samples.npz` (as `implicitize sample`), and last
 //! `NAME.entry.json`, the mesh's manifest line, which marks its outputs complete.
@@ -255,7 +255,7 @@ impl Outputs {
     fn of(job: &Job, out: &Path, options: &BatchOptions) -> Outputs {
         let file = |suffix: &str| out.join(format!("{}{suffix}", job.name));
         let files = FitOutputs {
-            model: Some(file(".json")),
+            model: Some(file(".imp")),
             report: Some(file(".report.json")),
             sdf: options.sdf.then(|| file(".sdf.npy")),
             ..FitOutputs::default()

@@ -460,18 +460,32 @@ pub fn fit(
 /// The smallest resolution a byte budget tries.
 const BUDGET_MIN_RESOLUTION: usize = 24;
 
-/// The resolution and target E of the fits with detail levels a byte budget tries, most
-/// accurate (and largest) first.
-const BUDGET_LEVELS: [(usize, f32); 3] = [(512, 1.0), (512, 2.0), (512, 4.0)];
+/// The resolution of the fits with detail levels a byte budget tries first.
+const BUDGET_LEVELS_RESOLUTION: usize = 512;
+
+/// The largest resolution a byte budget tries (with detail levels).
+const BUDGET_MAX_RESOLUTION: usize = 1024;
+
+/// The targets E of the fits with detail levels a byte budget tries, most accurate (and
+/// largest) first.
+const BUDGET_LEVEL_TARGETS: [f32; 3] = [1.0, 2.0, 4.0];
 
 /// The most accurate fit of `mesh` whose binary model file is at most `budget` bytes (see
-/// [`MeshFitOptions::max_bytes`]): the fit at the default resolution and target first; above
-/// the budget, fits at resolutions shrunk by the square root of the ratio of bytes (a model's
-/// size goes with its surface's area in voxels) until one is within it; within it, fits with
-/// detail levels at the targets of [`BUDGET_LEVELS`] and one at the resolution the ratio
-/// suggests, each kept if within the budget. Of those within it, the one whose surface is
-/// nearest the mesh (the mean of its report's two mean distances) is returned, its report's
-/// `byte_budget` listing every fit tried.
+/// [`MeshFitOptions::max_bytes`]). A model's size goes with its surface's area in voxels, so
+/// resolutions are scaled by the square root of a ratio of bytes (and a margin):
+///
+/// - the fit at the default resolution and target first; above the budget, fits at smaller
+///   resolutions until one is within it (the answer), or the budget is refused;
+/// - within it, fits with detail levels at 512 voxels to the targets of
+///   [`BUDGET_LEVEL_TARGETS`] until one is within the budget; if that is the first, one at
+///   the larger resolution (up to [`BUDGET_MAX_RESOLUTION`]) its size suggests, if the budget
+///   leaves room for it; if none is, one with levels at the smaller resolution the last
+///   suggests (levels need [`crate::fit::LevelOptions::min_axis`] voxels), and one without
+///   levels at the larger resolution the default fit's size suggests.
+///
+/// Of the fits within the budget, the one whose surface is nearest the mesh (the mean of its
+/// report's two mean distances) is returned, its report's `byte_budget` listing every fit
+/// tried. A larger fit that fails (the memory limit, say) is left out.
 ///
 /// # Errors
 /// A budget below the smallest model, naming its size; the errors of the first fit.
@@ -482,72 +496,40 @@ fn fit_within_bytes(
     budget: u64,
     observer: &mut dyn FitObserver,
 ) -> Result<Fitted> {
-    let mut search = BudgetSearch { mesh, name, options, observer, tried: Vec::new() };
+    let mut search =
+        BudgetSearch { mesh, name, options, observer, budget, tried: Vec::new(), best: None };
     let default_resolution = Resolution::DEFAULT_LONGEST_AXIS;
-    let first = search.try_fit(default_resolution, FitOptions::default().target_error)?;
-    let mut best = (0, first);
-    if search.tried[0].bytes > budget {
-        let mut resolution = default_resolution;
-        while resolution > BUDGET_MIN_RESOLUTION {
-            let last = search.tried.last().expect("one fit at least").bytes;
-            let ratio = (budget as f64 / last as f64).sqrt() * 0.95;
-            resolution = ((resolution as f64 * ratio) as usize).max(BUDGET_MIN_RESOLUTION);
-            let fitted = search.try_fit(resolution, FitOptions::default().target_error)?;
-            best = (search.tried.len() - 1, fitted);
-            if search.tried[best.0].bytes <= budget {
-                break;
-            }
-        }
-        let smallest = search.tried.iter().min_by_key(|t| t.bytes).expect("one fit at least");
-        if smallest.bytes > budget {
-            return Err(Error::invalid(
-                name,
-                format!(
-                    "no model fits in {budget} bytes: the smallest is {} bytes (at resolution                      {}); give `max_bytes` {} or more",
-                    smallest.bytes, smallest.resolution, smallest.bytes
-                ),
-            ));
-        }
+    let default_target = FitOptions::default().target_error;
+    let first = search.try_fit(default_resolution, default_target)?;
+    if first > budget {
+        search.shrink(default_resolution, first, default_target)?;
     } else {
-        let ratio = (budget as f64 / search.tried[0].bytes as f64).sqrt() * 0.9;
-        let larger = (default_resolution as f64 * ratio) as usize;
-        let min_levels_axis = options.fit.levels.min_axis;
-        let mut trials: Vec<(usize, f32)> = BUDGET_LEVELS.to_vec();
-        if larger > default_resolution * 11 / 10 {
-            trials.push((larger.min(min_levels_axis - 1), FitOptions::default().target_error));
-        }
-        for (resolution, target) in trials {
-            // A larger grid the memory limit refuses, or whose fit fails, is not a candidate.
-            let Ok(fitted) = search.try_fit(resolution, target) else { continue };
-            let trial = search.tried.last().expect("just tried");
-            let chosen = &search.tried[best.0];
-            if trial.bytes <= budget && trial.mean_distance < chosen.mean_distance {
-                best = (search.tried.len() - 1, fitted);
-            }
-            if trial.bytes <= budget && trial.levels > 0 {
-                // The first fit with levels within the budget is the most accurate of them.
-                break;
-            }
-        }
+        search.grow(first)?;
     }
-    let (chosen, mut fitted) = best;
-    fitted.report.byte_budget = Some(fit::ByteBudget { max_bytes: budget, tried: search.tried, chosen });
-    Ok(fitted)
+    Ok(search.result())
 }
 
-/// The fits a byte budget has tried.
+/// The resolution a fit of `bytes` at `resolution` suggests for `budget`, with a margin.
+fn scaled_resolution(resolution: usize, bytes: u64, budget: u64, margin: f64) -> usize {
+    (resolution as f64 * (budget as f64 / bytes as f64).sqrt() * margin) as usize
+}
+
+/// The fits a byte budget has tried, and the best within it so far.
 struct BudgetSearch<'a, 'o> {
     mesh: &'a Mesh,
     name: &'a str,
     options: &'a MeshFitOptions,
     observer: &'o mut dyn FitObserver,
+    budget: u64,
     tried: Vec<fit::BudgetTrial>,
+    best: Option<(usize, Fitted)>,
 }
 
 impl BudgetSearch<'_, '_> {
     /// The fit at `resolution` voxels along the longest axis to `target` E, recorded in `tried`
-    /// whether within the budget or not.
-    fn try_fit(&mut self, resolution: usize, target: f32) -> Result<Fitted> {
+    /// and kept as the best if it is within the budget and nearer the mesh than the best so
+    /// far: its binary file's size.
+    fn try_fit(&mut self, resolution: usize, target: f32) -> Result<u64> {
         let mut options = self.options.clone();
         options.max_bytes = None;
         options.resolution = Resolution::LongestAxis(resolution);
@@ -559,17 +541,95 @@ impl BudgetSearch<'_, '_> {
         let observer = &mut *self.observer;
         let fitted = prepared.fit(|report, implicit| observer.iteration(report, implicit))?;
         let voxel = fitted.report.voxel_size;
-        let mean_distance = fitted.report.mesh_distance.map_or(f64::INFINITY, |d| {
-            (d.mesh_to_model.mean + d.model_to_mesh.mean) / 2.0 * voxel
-        });
+        let mean_distance = fitted
+            .report
+            .mesh_distance
+            .map_or(f64::INFINITY, |d| (d.mesh_to_model.mean + d.model_to_mesh.mean) / 2.0 * voxel);
+        let bytes = fitted.model.to_bytes().len() as u64;
         self.tried.push(fit::BudgetTrial {
             resolution,
             target_error_voxels: target,
             levels: fitted.report.levels.as_ref().map_or(0, |l| l.levels.len()),
-            bytes: fitted.model.to_bytes().len() as u64,
+            bytes,
             mean_distance,
         });
-        Ok(fitted)
+        let nearer =
+            self.best.as_ref().is_none_or(|(i, _)| mean_distance < self.tried[*i].mean_distance);
+        if bytes <= self.budget && nearer {
+            self.best = Some((self.tried.len() - 1, fitted));
+        }
+        Ok(bytes)
+    }
+
+    /// A fit beyond the first: its size, or None when it failed (a larger grid than the
+    /// memory limit allows, say), which leaves it out of the search.
+    fn try_more(&mut self, resolution: usize, target: f32) -> Option<u64> {
+        self.try_fit(resolution, target).ok()
+    }
+
+    /// Fits at resolutions below `resolution`, whose fit was `bytes`, until one is within the
+    /// budget or a grid is too coarse to fit the mesh on.
+    ///
+    /// # Errors
+    /// When none is within the budget: the smallest fit's size, named.
+    fn shrink(&mut self, mut resolution: usize, mut bytes: u64, target: f32) -> Result<()> {
+        while bytes > self.budget && resolution > BUDGET_MIN_RESOLUTION {
+            resolution =
+                scaled_resolution(resolution, bytes, self.budget, 0.95).max(BUDGET_MIN_RESOLUTION);
+            let Some(smaller) = self.try_more(resolution, target) else { break };
+            bytes = smaller;
+        }
+        if self.best.is_some() {
+            return Ok(());
+        }
+        let smallest = self.tried.iter().min_by_key(|t| t.bytes).expect("one fit at least");
+        Err(Error::invalid(
+            self.name,
+            format!(
+                "no model fits in {} bytes: the smallest is {} bytes (at resolution {}); give \
+                 `max_bytes` {} or more",
+                self.budget, smallest.bytes, smallest.resolution, smallest.bytes
+            ),
+        ))
+    }
+
+    /// Fits larger than the default one, whose fit was `first` bytes (see
+    /// [`fit_within_bytes`]).
+    fn grow(&mut self, first: u64) -> Result<()> {
+        let mut last = None;
+        for (k, target) in BUDGET_LEVEL_TARGETS.into_iter().enumerate() {
+            let Some(bytes) = self.try_more(BUDGET_LEVELS_RESOLUTION, target) else { continue };
+            if bytes <= self.budget {
+                let larger = scaled_resolution(BUDGET_LEVELS_RESOLUTION, bytes, self.budget, 0.9)
+                    .min(BUDGET_MAX_RESOLUTION);
+                if k == 0 && larger > BUDGET_LEVELS_RESOLUTION * 5 / 4 {
+                    self.try_more(larger, target);
+                }
+                return Ok(());
+            }
+            last = Some((bytes, target));
+        }
+        let min_levels_axis = self.options.fit.levels.min_axis;
+        if let Some((bytes, target)) = last {
+            let smaller = scaled_resolution(BUDGET_LEVELS_RESOLUTION, bytes, self.budget, 0.95);
+            if smaller >= min_levels_axis {
+                self.try_more(smaller, target);
+            }
+        }
+        let default_resolution = Resolution::DEFAULT_LONGEST_AXIS;
+        let larger = scaled_resolution(default_resolution, first, self.budget, 0.9);
+        if larger > default_resolution * 11 / 10 {
+            self.try_more(larger.min(min_levels_axis - 1), FitOptions::default().target_error);
+        }
+        Ok(())
+    }
+
+    /// The best fit, its report's `byte_budget` saying what was tried.
+    fn result(self) -> Fitted {
+        let (chosen, mut fitted) = self.best.expect("a search that did not fail has a best fit");
+        fitted.report.byte_budget =
+            Some(fit::ByteBudget { max_bytes: self.budget, tried: self.tried, chosen });
+        fitted
     }
 }
 
@@ -1079,12 +1139,21 @@ impl Fitted {
     }
 
     /// Embeds the report in the model as the JSON model file keeps it, and records the size of
-    /// the binary model file in the report (`model_bytes`).
+    /// the binary model file in the report (`model_bytes`, and for detail levels what each
+    /// level adds to it).
     ///
     /// The embedded report leaves out the running times, so that the same mesh, options and
     /// seed give the same model file byte for byte; [`Fitted::report`] keeps them.
     pub fn finish(&mut self) {
         self.report.model_bytes = Some(self.model.to_bytes().len() as u64);
+        if let (Some(levels), Some(sizes)) =
+            (&mut self.report.levels, self.model.binary_bytes_by_level())
+        {
+            levels.base_bytes = sizes[0] as usize;
+            for (level, pair) in levels.levels.iter_mut().zip(sizes.windows(2)) {
+                level.bytes = (pair[1] - pair[0]) as usize;
+            }
+        }
         self.model.set_report(without_timings(&self.report));
     }
 

@@ -231,6 +231,7 @@ def fit(
     full_resolution: bool = False,
     levels: Optional[int] = None,
     shell: Union[float, str, None] = None,
+    max_bytes: Optional[int] = None,
     memory_limit: _Memory = None,
 ) -> Model:
     """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``.
@@ -248,6 +249,10 @@ def fit(
     iteration on stderr;
     ``shell`` fits the surface thickened to that thickness in all (a number of voxels, or a
     string such as ``"0.01u"`` in mesh units), for open shells and walls too thin for the grid;
+    ``max_bytes`` returns the most accurate model whose binary file (``Model.save``) has at most
+    that many bytes, choosing the resolution, target and detail levels (the report's
+    ``byte_budget`` lists the fits tried), and raises ``ValueError`` naming the smallest size
+    when no model fits;
     ``memory_limit`` as in :func:`voxelize`. The GIL is released while fitting. An open mesh
     and thin walls the fit goes ahead with are reported as ``UserWarning``.
     """
@@ -263,6 +268,7 @@ def fit(
         full_resolution=full_resolution,
         levels=None if levels is None else int(levels),
         shell=shell,
+        max_bytes=None if max_bytes is None else int(max_bytes),
         progress=progress,
         memory_limit=memory_limit,
     )

@@ -132,6 +132,8 @@ def fit(
     subvoxel: bool = False,
     full_resolution: bool = False,
     levels: Optional[int] = None,
+    shell: Union[float, str, None] = None,
+    max_bytes: Optional[int] = None,
     memory_limit: _Memory = None,
 ) -> Model:
     """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``; None is

@@ -86,6 +86,11 @@ def _parser() -> argparse.ArgumentParser:
         "--shell", help="fit the surface thickened to T: voxels (as 2) or mesh units (as 0.01u)"
     )
     parser.add_argument(
+        "--max-bytes",
+        type=int,
+        help="the most accurate model whose binary file has at most this many bytes",
+    )
+    parser.add_argument(
         "--memory-limit",
         help="bytes, or a size such as 2G (default: the machine's available memory)",
     )
@@ -105,6 +110,7 @@ def _options(args: argparse.Namespace) -> Dict[str, Any]:
         "full_resolution": args.full_resolution,
         "levels": args.levels,
         "shell": args.shell,
+        "max_bytes": args.max_bytes,
         "sdf": args.sdf,
         "samples": args.samples,
         "memory_limit": args.memory_limit,

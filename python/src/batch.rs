@@ -27,8 +27,8 @@ pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
 #[pyfunction]
 #[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=None,
                     seed=None, max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, levels=None, shell=None, sdf=false,
-                    samples=None, memory_limit=None))]
+                    subvoxel=false, full_resolution=false, levels=None, shell=None, max_bytes=None,
+                    sdf=false, samples=None, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn batch_convert(
     py: Python<'_>,
@@ -46,6 +46,7 @@ pub fn batch_convert(
     full_resolution: bool,
     levels: Option<i64>,
     shell: Option<ShellArg>,
+    max_bytes: Option<i64>,
     sdf: bool,
     samples: Option<i64>,
     memory_limit: Option<MemoryArg>,
@@ -70,6 +71,7 @@ pub fn batch_convert(
         full_resolution,
         levels,
         shell,
+        max_bytes,
         memory_limit,
     }
     .options()?;

@@ -268,7 +268,7 @@ impl FitObserver for Progress {
 #[pyo3(signature = (mesh, resolution=None, dims=None, target_error=None, seed=None,
                     max_constraints=None, method=None, max_iterations=None,
                     subvoxel=false, full_resolution=false, levels=None, shell=None,
-                    progress=false, memory_limit=None))]
+                    max_bytes=None, progress=false, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
     py: Python<'_>,
@@ -284,6 +284,7 @@ pub fn fit(
     full_resolution: bool,
     levels: Option<i64>,
     shell: Option<ShellArg>,
+    max_bytes: Option<i64>,
     progress: bool,
     memory_limit: Option<MemoryArg>,
 ) -> PyResult<PyModel> {
@@ -299,6 +300,7 @@ pub fn fit(
         full_resolution,
         levels,
         shell,
+        max_bytes,
         memory_limit,
     }
     .options()?;

@@ -105,7 +105,8 @@ pub struct LevelReport {
     pub radius_voxels: f64,
     /// Its centres.
     pub centres: usize,
-    /// Its size as a compact model: centres x 16 bytes (position and weight in f32).
+    /// What it adds to the binary model file, in bytes (0 until the model is finished: see
+    /// [`crate::pipeline::Fitted::finish`]).
     pub bytes: usize,
     /// Stored entries of its sparse matrix.
     pub matrix_entries: usize,
@@ -131,7 +132,8 @@ pub struct LevelsReport {
     pub base_dims: [usize; 3],
     /// Level 0's centres.
     pub base_centres: usize,
-    /// Level 0's size as a compact model: centres x 16 bytes.
+    /// The binary model file's size with level 0 alone, in bytes (0 until the model is
+    /// finished).
     pub base_bytes: usize,
     /// The largest error at the goal's surface points with level 0 alone, in voxels of the
     /// full grid.
@@ -425,7 +427,7 @@ fn add_levels(
         reports.push(LevelReport {
             radius_voxels: radius / voxel,
             centres: chosen.len(),
-            bytes: chosen.len() * 16,
+            bytes: 0,
             matrix_entries: solve.entries,
             solve_iterations: solve.iterations,
             solve_residual: solve.residual,
@@ -456,7 +458,7 @@ fn add_levels(
         max_error_subvoxel_voxels: metrics.max_error_subvoxel,
         rms_error_subvoxel_voxels: metrics.rms_error_subvoxel,
         base_centres: base_implicit.len(),
-        base_bytes: base_implicit.len() * 16,
+        base_bytes: 0,
         base_max_error_voxels: base_max,
         base_p999_error_voxels: base_p999,
         points: data_points,

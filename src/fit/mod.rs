@@ -41,11 +41,14 @@ use crate::grid::{Grid, Volume};
 use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions, SubVoxel};
 use crate::rbf::{self, Implicit, Kernel};
 
+pub use compact::Precision;
 pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
-pub use compact::Precision;
 pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport};
-pub use report::{BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, Termination, Timings};
+pub use report::{
+    BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, Termination,
+    Timings,
+};
 pub use thickness::Thickness;
 
 /// Every threshold of the fit, with the paper's values as defaults where the paper gives one.

@@ -224,6 +224,19 @@ impl Model {
         binary::encode(&self.shape, &self.bounds, self.grid.as_ref())
     }
 
+    /// For a model with detail levels, the binary file's size with level 0 alone and then with
+    /// each level added in turn (the differences are what each level costs); None otherwise.
+    pub(crate) fn binary_bytes_by_level(&self) -> Option<Vec<u64>> {
+        let Shape::Levels(multi) = &self.shape else { return None };
+        let size = |levels: usize| {
+            let levels = multi.levels()[..levels].to_vec();
+            let prefix = MultiScale::new("", multi.base().clone(), levels).ok()?;
+            Some(binary::encode(&Shape::Levels(prefix), &self.bounds, self.grid.as_ref()).len()
+                as u64)
+        };
+        (0..=multi.levels().len()).map(size).collect()
+    }
+
     /// The file's contents in `format`.
     pub fn to_format(&self, format: ModelFormat) -> Vec<u8> {
         match format {

@@ -90,7 +90,7 @@ fn check_json(path: &Path) {
 fn check_fit_output(path: &Path) {
     match path.extension().and_then(|e| e.to_str()) {
         Some("ply") => check_mesh(path),
-        _ if path.file_name().is_some_and(|n| n == "model.json") => {
+        _ if path.file_name().is_some_and(|n| n == "model.imp") => {
             let model = Model::load(path)
                 .unwrap_or_else(|e| panic!("{} is not a complete model: {e}", path.display()));
             assert!(model.implicit().is_some_and(|f| f.len() > 10));
@@ -116,7 +116,7 @@ fn check_volume_output(path: &Path) {
 fn fit_killed_at_random_leaves_complete_outputs_or_none() {
     let dir = tempfile::tempdir().unwrap();
     let [model, report, surface] =
-        ["model.json", "report.json", "surface.ply"].map(|n| dir.path().join(n));
+        ["model.imp", "report.json", "surface.ply"].map(|n| dir.path().join(n));
     let mesh = triceratops();
     let args = [
         "fit",

@@ -80,17 +80,17 @@ fn outputs_equal_fit_and_sdf_and_a_rerun_skips_them() {
     let (lib, out) = (library(dir.path()), dir.path().join("out"));
     batch(&lib, &out);
     let good = lib.join("good.obj");
-    let (model, sdf) = (dir.path().join("fit.json"), dir.path().join("sdf.npy"));
+    let (model, sdf) = (dir.path().join("fit.imp"), dir.path().join("sdf.npy"));
     let r = p("--resolution");
     assert!(run(&[p("fit"), &good, r, p("40"), p("-o"), &model]).status.success());
     assert!(run(&[p("sdf"), &good, r, p("40"), p("-o"), &sdf]).status.success());
     let read = |path: PathBuf| std::fs::read(path).unwrap();
-    assert_eq!(read(out.join("good.json")), read(model.clone()));
+    assert_eq!(read(out.join("good.imp")), read(model.clone()));
     assert_eq!(read(out.join("good.sdf.npy")), read(sdf.clone()));
     assert_eq!(read(out.join("good.sdf.json")), read(sdf.with_extension("json")));
 
     let before = manifest(&out);
-    let modified = std::fs::metadata(out.join("good.json")).unwrap().modified().unwrap();
+    let modified = std::fs::metadata(out.join("good.imp")).unwrap().modified().unwrap();
     std::fs::write(lib.join("broken.obj"), std::fs::read(triceratops()).unwrap()).unwrap();
     let o = batch(&lib, &out);
     assert_eq!(o.status.code(), Some(1), "empty and unreadable still fail");
@@ -98,7 +98,7 @@ fn outputs_equal_fit_and_sdf_and_a_rerun_skips_them() {
     assert_eq!(after[2]["reused"], true, "good.obj was skipped");
     after[2]["reused"] = false.into();
     assert_eq!(after[2], before[2], "good.obj's line is the stored one");
-    assert_eq!(std::fs::metadata(out.join("good.json")).unwrap().modified().unwrap(), modified);
+    assert_eq!(std::fs::metadata(out.join("good.imp")).unwrap().modified().unwrap(), modified);
     assert_eq!(after[0]["status"], "ok", "the repaired mesh is converted on the rerun");
     let stray: Vec<_> = std::fs::read_dir(&out)
         .unwrap()
@@ -152,7 +152,7 @@ fn a_rerun_refits_what_another_resolution_or_a_touched_mesh_changes_and_reuses_t
     assert_eq!(origin["options"]["fit"]["resolution"]["longest_axis"], 32);
     assert_eq!(origin["blake3"].as_str().unwrap().len(), 64);
 
-    let model_at_32 = std::fs::read(out.join("a.json")).unwrap();
+    let model_at_32 = std::fs::read(out.join("a.imp")).unwrap();
     let (same, reused) = batch_at(&lib, &out, "32");
     assert_eq!(reused, 3, "an unchanged folder reuses every mesh");
     assert!(same.iter().all(|e| e["reused"] == true));
@@ -162,7 +162,7 @@ fn a_rerun_refits_what_another_resolution_or_a_touched_mesh_changes_and_reuses_t
     assert!(
         other.iter().all(|e| e["origin"]["options"]["fit"]["resolution"]["longest_axis"] == 36)
     );
-    assert_ne!(std::fs::read(out.join("a.json")).unwrap(), model_at_32, "a.json was refitted");
+    assert_ne!(std::fs::read(out.join("a.imp")).unwrap(), model_at_32, "a.imp was refitted");
 
     // Touching b.obj (same contents, a newer modification time) refits b only.
     let b = std::fs::File::options().write(true).open(lib.join("b.obj")).unwrap();

@@ -154,7 +154,7 @@ fn demo_writes_into_its_folder() {
     assert!(out.status.success(), "{stderr}");
     assert!(stderr.starts_with("warning: triceratops.obj (built in): "), "{stderr}");
     assert!(stderr.contains("voxels thick") && stderr.contains("--resolution "), "{stderr}");
-    for file in ["model.json", "report.json", "surface.ply"] {
+    for file in ["model.imp", "report.json", "surface.ply"] {
         assert!(dir.path().join("demo").join(file).is_file(), "no {file}");
     }
 }
@@ -246,4 +246,76 @@ fn an_unknown_or_unsupported_isa_is_a_one_line_error() {
         assert!(stderr.contains(&format!("IMPLICITIZE_ISA={value}")), "{stderr}");
         assert!(!dir.path().join("m.json").exists());
     }
+}
+
+/// Fits the triceratops at `resolution` into `dir/name` with `flags`; the report.
+fn fit_to(dir: &Path, name: &str, flags: &[&str]) -> (std::process::Output, serde_json::Value) {
+    let report = dir.join(format!("{name}.report.json"));
+    let out = implicitize()
+        .arg("fit")
+        .arg(triceratops())
+        .args(flags)
+        .arg("--quiet")
+        .arg("-o")
+        .arg(dir.join(name))
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .unwrap();
+    let report = std::fs::read(&report)
+        .map_or(serde_json::Value::Null, |bytes| serde_json::from_slice(&bytes).unwrap());
+    (out, report)
+}
+
+#[test]
+fn fit_writes_binary_unless_the_name_or_the_format_says_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let flags = ["--resolution", "64"];
+    let (out, report) = fit_to(dir.path(), "t.imp", &flags);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let binary = std::fs::read(dir.path().join("t.imp")).unwrap();
+    assert!(binary.starts_with(implicitize::model::BINARY_MAGIC));
+    assert_eq!(report["model_bytes"].as_u64(), Some(binary.len() as u64));
+    let (out, _) = fit_to(dir.path(), "t.json", &flags);
+    assert!(out.status.success());
+    let (out, _) = fit_to(dir.path(), "t.model", &[&flags[..], &["--format", "json"]].concat());
+    assert!(out.status.success());
+    let json = std::fs::read(dir.path().join("t.json")).unwrap();
+    assert!(json.starts_with(b"{"));
+    assert_eq!(json, std::fs::read(dir.path().join("t.model")).unwrap());
+    // The two files hold the same function: equal values, bit for bit.
+    let [a, b] =
+        ["t.imp", "t.json"].map(|n| implicitize::Model::load(&dir.path().join(n)).unwrap());
+    let bounds = a.bounds();
+    let points: Vec<_> =
+        (0..=20).map(|i| bounds.min + (bounds.max - bounds.min) * (f64::from(i) / 20.0)).collect();
+    use implicitize::Field;
+    assert_eq!(a.values(&points), b.values(&points));
+}
+
+#[test]
+fn a_byte_budget_writes_a_model_within_it_and_says_what_it_chose() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, report) = fit_to(dir.path(), "t.imp", &["--max-bytes", "1500"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let bytes = std::fs::metadata(dir.path().join("t.imp")).unwrap().len();
+    assert!(bytes <= 1500, "{bytes} bytes");
+    let budget = &report["byte_budget"];
+    assert_eq!(budget["max_bytes"], 1500);
+    let tried = budget["tried"].as_array().unwrap();
+    assert!(tried.len() >= 2, "the default fit is larger than 1500 bytes: {budget}");
+    let chosen = &tried[budget["chosen"].as_u64().unwrap() as usize];
+    assert_eq!(chosen["bytes"].as_u64(), Some(bytes));
+    assert_eq!(chosen["resolution"].as_u64(), report["dims"][0].as_u64());
+}
+
+#[test]
+fn a_byte_budget_no_model_fits_in_is_refused_naming_the_smallest() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, _) = fit_to(dir.path(), "t.imp", &["--max-bytes", "100"]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("no model fits in 100 bytes: the smallest is "), "{stderr}");
+    assert!(!dir.path().join("t.imp").exists());
 }

@@ -248,7 +248,7 @@ pub fn demo(args: &DemoCommand, progress: Progress) -> anyhow::Result<()> {
     let (mesh, _) = mesh::read_bytes(TRICERATOPS_OBJ, mesh::Format::Obj, source)?;
     output::prepare_folder(&args.output)?;
     let mut outputs = FitOutputs::default();
-    outputs.model = Some(args.output.join("model.json"));
+    outputs.model = Some(args.output.join("model.imp"));
     outputs.report = Some(args.output.join("report.json"));
     outputs.surface = Some(args.output.join("surface.ply"));
     let compare = args.output.join("compare.png");
