@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! file    = "IMPZ" version:u8 stream stream stream      (version 1)
-//! stream  = length:varint zstd-frame                      meta, points, integers
+//! stream  = length:varint zstd-frame (stating its size)   meta, points, integers
 //! meta    = bounds:6 f64, grid?, shape
 //! grid?   = 0 | 1 dims:3 varint origin:3 f64 voxel_size:f64
 //! shape   = 0 rbf | 1 levels | 2 csg
@@ -102,7 +102,7 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<(Shape, Aabb, Option<G
         let size = zstd::zstd_safe::get_frame_content_size(packed)
             .ok()
             .flatten()
-            .ok_or_else(|| bad(format!("the {name} stream is not a zstd frame")))?;
+            .ok_or_else(|| bad(format!("the {name} stream is not a zstd frame that states its size")))?;
         if size > limit as u64 {
             return Err(bad(format!("the {name} stream claims {size} bytes, too many")));
         }
