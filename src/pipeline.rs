@@ -470,6 +470,14 @@ const BUDGET_MAX_RESOLUTION: usize = 1024;
 /// largest) first.
 const BUDGET_LEVEL_TARGETS: [f32; 3] = [1.0, 2.0, 4.0];
 
+/// The targets E of the fits without detail levels a byte budget tries, one after the other
+/// while the budget leaves room for the next.
+const BUDGET_TARGETS_WITHOUT_LEVELS: [f32; 3] = [2.0, 1.5, 1.0];
+
+/// About how much a fit without levels grows from one of [`BUDGET_TARGETS_WITHOUT_LEVELS`] to
+/// the next (about 1.5 times from 2 to 1.5 on the horse at 380 voxels).
+const BUDGET_TARGET_GROWTH: f64 = 1.4;
+
 /// The most accurate fit of `mesh` whose binary model file is at most `budget` bytes (see
 /// [`MeshFitOptions::max_bytes`]). A model's size goes with its surface's area in voxels, so
 /// resolutions are scaled by the square root of a ratio of bytes (and a margin):
@@ -480,8 +488,9 @@ const BUDGET_LEVEL_TARGETS: [f32; 3] = [1.0, 2.0, 4.0];
 ///   [`BUDGET_LEVEL_TARGETS`] until one is within the budget; if that is the first, one at
 ///   the larger resolution (up to [`BUDGET_MAX_RESOLUTION`]) its size suggests, if the budget
 ///   leaves room for it; if none is, one with levels at the smaller resolution the last
-///   suggests (levels need [`crate::fit::LevelOptions::min_axis`] voxels), and one without
-///   levels at the larger resolution the default fit's size suggests.
+///   suggests (levels need [`crate::fit::LevelOptions::min_axis`] voxels), and fits without
+///   levels at the larger resolution the default fit's size suggests, to the targets of
+///   [`BUDGET_TARGETS_WITHOUT_LEVELS`] while the budget leaves room for the next.
 ///
 /// Of the fits within the budget, the one whose surface is nearest the mesh (the mean of its
 /// report's two mean distances) is returned, its report's `byte_budget` listing every fit
@@ -617,9 +626,15 @@ impl BudgetSearch<'_, '_> {
             }
         }
         let default_resolution = Resolution::DEFAULT_LONGEST_AXIS;
-        let larger = scaled_resolution(default_resolution, first, self.budget, 0.9);
+        let larger =
+            scaled_resolution(default_resolution, first, self.budget, 0.9).min(min_levels_axis - 1);
         if larger > default_resolution * 11 / 10 {
-            self.try_more(larger.min(min_levels_axis - 1), FitOptions::default().target_error);
+            for target in BUDGET_TARGETS_WITHOUT_LEVELS {
+                match self.try_more(larger, target) {
+                    Some(bytes) if bytes as f64 * BUDGET_TARGET_GROWTH <= self.budget as f64 => {}
+                    _ => break,
+                }
+            }
         }
         Ok(())
     }

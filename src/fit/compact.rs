@@ -55,6 +55,10 @@ impl Precision {
     /// it stores its function as it is.
     pub const TRIES: usize = 3;
 
+    /// How far, in voxels, the E of a stored function may exceed both the target and the
+    /// unrounded function's E when no precision tried keeps it within them.
+    pub const SLACK_VOXELS: f32 = 0.5;
+
     /// A finer precision: level 0's lattice twice as fine and its tolerance a quarter.
     pub fn finer(&self) -> Precision {
         Precision {

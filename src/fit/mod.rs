@@ -293,8 +293,10 @@ pub fn fit(
 
 /// The model as stored, and its figures: `implicit` (which measured `metrics`) made compact
 /// ([`compact::implicit`]) and measured again, at finer precisions while that takes its E above
-/// both the target and its own E before (rounding can tip a voxel's side), and as it is after
-/// [`compact::Precision::TRIES`] such tries.
+/// both the target and its own E before (rounding can tip a voxel's side), up to
+/// [`compact::Precision::TRIES`] tries. When none is within that, the try of least E is kept
+/// if it is within [`compact::Precision::SLACK_VOXELS`] more (E moves in steps: a voxel whose
+/// side tips moves it by a step), and the function as it is otherwise.
 fn stored(
     goal: &Goal,
     implicit: Implicit,
@@ -304,18 +306,31 @@ fn stored(
 ) -> Result<(Implicit, ErrorMetrics)> {
     let allowed = options.error_measure.of(&metrics).max(options.target_error);
     let mut precision = options.precision.clone();
+    let mut least: Option<(Implicit, ErrorMetrics)> = None;
     for _ in 0..compact::Precision::TRIES {
         let compact = compact::implicit(implicit.clone(), goal.grid(), &precision)?;
         if compact.lattice().is_none() {
             break;
         }
         let measured = measure(goal, &compact, options, &mut log.totals).metrics;
-        if options.error_measure.of(&measured) <= allowed {
+        let error = options.error_measure.of(&measured);
+        if error <= allowed {
             return Ok((compact, measured));
+        }
+        if least.as_ref().is_none_or(|(_, m)| error < options.error_measure.of(m)) {
+            least = Some((compact, measured));
         }
         precision = precision.finer();
     }
-    Ok((implicit, metrics))
+    match least {
+        Some((compact, measured))
+            if options.error_measure.of(&measured)
+                <= allowed + compact::Precision::SLACK_VOXELS =>
+        {
+            Ok((compact, measured))
+        }
+        _ => Ok((implicit, metrics)),
+    }
 }
 
 /// The report of a fit on `grid` whose kept model measured `metrics`, from `log`.

@@ -99,10 +99,10 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<(Shape, Aabb, Option<G
                 .and_then(|n| rest.split_at_checked(n))
                 .ok_or_else(|| bad(format!("the {name} stream is cut short (truncated file?)")))?;
         rest = after;
-        let size = zstd::zstd_safe::get_frame_content_size(packed)
-            .ok()
-            .flatten()
-            .ok_or_else(|| bad(format!("the {name} stream is not a zstd frame that states its size")))?;
+        let size =
+            zstd::zstd_safe::get_frame_content_size(packed).ok().flatten().ok_or_else(|| {
+                bad(format!("the {name} stream is not a zstd frame that states its size"))
+            })?;
         if size > limit as u64 {
             return Err(bad(format!("the {name} stream claims {size} bytes, too many")));
         }
