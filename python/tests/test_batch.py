@@ -56,7 +56,7 @@ def test_local_cluster_writes_the_rust_batch_manifest_and_files(tmp_path, run, t
     failed = [e for e in manifest(dask) if e["status"] == "failed"]
     assert [e["name"] for e in failed] == ["broken", "unreadable"]
     assert all(e["error"].startswith(e["input"]) for e in failed)
-    for name in ["mesh-00.json", "mesh-01.json", "mesh-00.sdf.npy", "mesh-01.report.json"]:
+    for name in ["mesh-00.imp", "mesh-01.imp", "mesh-00.sdf.npy", "mesh-01.report.json"]:
         if name.endswith("report.json"):
             ours, theirs = (json.loads((d / name).read_text()) for d in (dask, rust))
             assert ours.keys() == theirs.keys()

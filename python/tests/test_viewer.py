@@ -247,6 +247,17 @@ def test_a_csg_composite_is_drawn_as_render_draws_it(run, models, browser):
     assert score >= 0.99
 
 
+def spread(points: np.ndarray, count: int) -> np.ndarray:
+    """`count` of the points, each the farthest from those chosen before it (the first point
+    first): spread over the whole surface whatever order the model stores its centres in."""
+    chosen = [0]
+    distance = np.linalg.norm(points - points[0], axis=1)
+    while len(chosen) < count:
+        chosen.append(int(distance.argmax()))
+        distance = np.minimum(distance, np.linalg.norm(points - points[chosen[-1]], axis=1))
+    return points[chosen]
+
+
 @pytest.fixture(scope="module")
 def bumpy(run, models) -> Path:
     """The mesh's model with one detail level: at a dozen of its surface centres, Wendland
@@ -254,8 +265,8 @@ def bumpy(run, models) -> Path:
     support; and its page and exported GLSL."""
     model = json.loads((models / "mesh.json").read_text())
     base = {k: v for k, v in model["shape"].items() if k != "type"}
-    surface = [c for c, k in zip(base["centres"], base["kinds"]) if k == "boundary"]
-    centres = np.array(surface[:: max(1, len(surface) // 12)][:12])
+    surface = np.array([c for c, k in zip(base["centres"], base["kinds"]) if k == "boundary"])
+    centres = spread(surface, 12)
     lo, hi = np.array(model["bounds"]["min"]), np.array(model["bounds"]["max"])
     radius = 0.06 * float((hi - lo).max())
     h = 1e-3 * radius

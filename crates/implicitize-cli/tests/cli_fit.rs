@@ -319,3 +319,69 @@ fn a_byte_budget_no_model_fits_in_is_refused_naming_the_smallest() {
     assert!(stderr.contains("no model fits in 100 bytes: the smallest is "), "{stderr}");
     assert!(!dir.path().join("t.imp").exists());
 }
+
+/// Every command that reads a model reads the binary file, and gives the same output from it
+/// as from the same model written as JSON (the two evaluate bit for bit alike).
+#[test]
+fn every_consumer_reads_the_binary_model_as_it_reads_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, _) = fit_to(dir.path(), "t.imp", &["--resolution", "48"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let model = implicitize::Model::load(&dir.path().join("t.imp")).unwrap();
+    model.save_as(&dir.path().join("t.json"), implicitize::ModelFormat::Json).unwrap();
+    let points = dir.path().join("points.csv");
+    std::fs::write(&points, "x,y,z\n0,0,0\n1,2,3\n-2,0.5,1\n").unwrap();
+    let outputs = |stem: &str| -> String {
+        let d = dir.path().join(stem);
+        std::fs::create_dir_all(&d).unwrap();
+        let m = dir.path().join(format!("t.{stem}"));
+        let m = m.to_str().unwrap();
+        let d = d.to_str().unwrap();
+        let p = points.to_str().unwrap();
+        let commands: [Vec<String>; 7] = [
+            ["eval", m, "--points", p, "-o", &format!("{d}/values.npy")].map(String::from).into(),
+            ["mesh", m, "--resolution", "40", "-o", &format!("{d}/surface.ply")]
+                .map(String::from)
+                .into(),
+            ["render", m, "--size", "64", "48", "-o", &format!("{d}/picture.png")]
+                .map(String::from)
+                .into(),
+            ["view", m, "-o", &format!("{d}/page.html")].map(String::from).into(),
+            ["export", m, "--format", "glsl", "-o", &format!("{d}/shader.glsl")]
+                .map(String::from)
+                .into(),
+            ["csg", "union", m, m, "--blend", "0.5", "-o", &format!("{d}/union.json")]
+                .map(String::from)
+                .into(),
+            ["morph", m, m, "--steps", "2", "--resolution", "24", "-o", &format!("{d}/morph")]
+                .map(String::from)
+                .into(),
+        ];
+        for args in &commands {
+            let out = implicitize().args(args).arg("--quiet").output().unwrap();
+            assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+        }
+        d.to_string()
+    };
+    let (binary, json) = (outputs("imp"), outputs("json"));
+    for file in ["values.npy", "surface.ply", "picture.png", "union.json", "morph/frame-001.ply"] {
+        let read = |d: &str| std::fs::read(Path::new(d).join(file)).unwrap();
+        assert!(read(&binary) == read(&json), "{file} differs between t.imp and t.json");
+    }
+    // The page and the shader name the model file they were made from, and the page its size.
+    for file in ["page.html", "shader.glsl"] {
+        let read =
+            |d: &str| without_file_size(&std::fs::read_to_string(Path::new(d).join(file)).unwrap());
+        assert_eq!(read(&binary).replace("t.imp", "t.json"), read(&json), "{file}");
+    }
+}
+
+/// The text with the digits after each `"bytes":` taken out.
+fn without_file_size(text: &str) -> String {
+    let mut parts = text.split("\"bytes\":");
+    let mut out = parts.next().unwrap_or_default().to_string();
+    for part in parts {
+        out.push_str(part.trim_start_matches(|c: char| c.is_ascii_digit()));
+    }
+    out
+}

@@ -71,23 +71,18 @@ enum Shape {
 }
 
 impl Shape {
-    /// Reads a model (.json) or a mesh (by its extension).
+    /// Reads a mesh (by its extension: .obj, .ply, .stl or .off) or else a model file (binary
+    /// or JSON, whatever its name).
     fn read(path: &Path, progress: Progress) -> anyhow::Result<Shape> {
         let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        match ext.as_deref() {
-            Some("json") => {
-                let model = Model::load(path)?;
-                if model.implicit().is_some_and(|f| f.dim() == 2) {
-                    bail!("{}: a 2D model has no surface to draw in 3D", path.display());
-                }
-                Ok(Shape::Model(Box::new(model)))
-            }
-            Some("obj" | "ply" | "stl" | "off") => Ok(Shape::Mesh(read_mesh(path, progress)?)),
-            _ => bail!(
-                "{}: unknown input: expected a model (.json) or a mesh (.obj, .ply, .stl or .off)",
-                path.display()
-            ),
+        if let Some("obj" | "ply" | "stl" | "off") = ext.as_deref() {
+            return Ok(Shape::Mesh(read_mesh(path, progress)?));
         }
+        let model = Model::load(path)?;
+        if model.implicit().is_some_and(|f| f.dim() == 2) {
+            bail!("{}: a 2D model has no surface to draw in 3D", path.display());
+        }
+        Ok(Shape::Model(Box::new(model)))
     }
 
     /// The box the camera frames: the shape's bounds (for a fitted model, those of the mesh it
