@@ -492,8 +492,8 @@ const BUDGET_TARGET_GROWTH: f64 = 1.4;
 /// - the fit at the default resolution and target first; above the budget, fits at smaller
 ///   resolutions until one is within it (the answer), or the budget is refused;
 /// - within it, a fit with detail levels at 512 voxels to [`BUDGET_LEVELS_TARGET`]; within
-///   the budget, one at the larger resolution (up to [`BUDGET_MAX_RESOLUTION`]) its size
-///   suggests, if the budget leaves room for it; above it, fits with levels to the same target
+///   the budget, fits at the larger resolutions (up to [`BUDGET_MAX_RESOLUTION`]) the last
+///   one's size suggests, while the budget leaves room and they are within it; above it, fits with levels to the same target
 ///   at the smaller resolutions the last one's size suggests, until one is within the budget
 ///   or the resolution is below [`BUDGET_LEVELS_MIN_RESOLUTION`];
 /// - if no fit with levels is within the budget, fits without levels at the larger
@@ -634,12 +634,21 @@ impl BudgetSearch<'_, '_> {
             return false;
         };
         if bytes <= self.budget {
-            let larger =
-                scaled_resolution(resolution, bytes, self.budget, 0.9).min(BUDGET_MAX_RESOLUTION);
-            if larger > resolution * 5 / 4 {
-                self.try_more(larger, target, Levels::FromBudgetMinimum);
+            // Finer grids grow by less than their area (level 0 keeps a goal of at most
+            // `max_goal_axis` voxels), so each larger fit is scaled from the last.
+            loop {
+                let larger = scaled_resolution(resolution, bytes, self.budget, 0.9)
+                    .min(BUDGET_MAX_RESOLUTION);
+                if larger <= resolution * 5 / 4 {
+                    return true;
+                }
+                match self.try_more(larger, target, Levels::FromBudgetMinimum) {
+                    Some(larger_bytes) if larger_bytes <= self.budget => {
+                        (resolution, bytes) = (larger, larger_bytes);
+                    }
+                    _ => return true,
+                }
             }
-            return true;
         }
         while bytes > self.budget {
             resolution = scaled_resolution(resolution, bytes, self.budget, 0.95);
