@@ -152,11 +152,7 @@ fn damaged_and_missing_files_are_named_errors() {
     assert_names_file(&missing, &Model::load(&missing).unwrap_err().to_string(), "");
     let text = dir.path().join("text.json");
     std::fs::write(&text, "hello").unwrap();
-    assert_names_file(
-        &text,
-        &Model::load(&text).unwrap_err().to_string(),
-        "not a valid model file",
-    );
+    assert_names_file(&text, &Model::load(&text).unwrap_err().to_string(), "not a model file");
 }
 
 proptest! {

@@ -270,8 +270,15 @@ impl Model {
         if bytes.starts_with(binary::MAGIC) {
             let (shape, bounds, grid) = binary::decode(bytes, path)?;
             Ok(Model { shape, bounds, grid, report: None })
-        } else {
+        } else if bytes.iter().find(|b| !b.is_ascii_whitespace()) == Some(&b'{') {
             Model::from_json(bytes, path)
+        } else {
+            Err(Error::parse(
+                path,
+                None,
+                "not a model file: it begins neither with IMPZ (the binary model) nor with `{` \
+                 (a JSON model)",
+            ))
         }
     }
 

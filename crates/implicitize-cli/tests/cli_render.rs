@@ -222,7 +222,7 @@ fn bad_sizes_views_and_inputs_fail_with_one_line() {
     let text = dir.path().join("notes.txt");
     std::fs::write(&text, "hello").unwrap();
     let stderr = render(&[text.to_str().unwrap()]);
-    assert!(stderr.contains("notes.txt") && stderr.contains(".json"), "{stderr}");
+    assert!(stderr.contains("notes.txt") && stderr.contains("not a model file"), "{stderr}");
     let broken = dir.path().join("broken.json");
     std::fs::write(&broken, "{\"format\": ").unwrap();
     let stderr = render(&[broken.to_str().unwrap()]);
