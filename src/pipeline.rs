@@ -493,9 +493,10 @@ const BUDGET_TARGET_GROWTH: f64 = 1.4;
 ///   resolutions until one is within it (the answer), or the budget is refused;
 /// - within it, a fit with detail levels at 512 voxels to [`BUDGET_LEVELS_TARGET`]; within
 ///   the budget, fits at the larger resolutions (up to [`BUDGET_MAX_RESOLUTION`]) the last
-///   one's size suggests, while the budget leaves room and they are within it; above it, fits with levels to the same target
-///   at the smaller resolutions the last one's size suggests, until one is within the budget
-///   or the resolution is below [`BUDGET_LEVELS_MIN_RESOLUTION`];
+///   one's size suggests, while the budget leaves room and they are within it; above it, fits
+///   with levels to the same target at the smaller resolutions the last one's size suggests,
+///   until one is within the budget or the resolution is below
+///   [`BUDGET_LEVELS_MIN_RESOLUTION`];
 /// - if no fit with levels is within the budget, fits without levels at the larger
 ///   resolution the default fit's size suggests, to the targets of
 ///   [`BUDGET_TARGETS_WITHOUT_LEVELS`] while the budget leaves room for the next.
@@ -628,34 +629,49 @@ impl BudgetSearch<'_, '_> {
 
     /// Fits with detail levels (see [`fit_within_bytes`]): whether one was within the budget.
     fn grow_with_levels(&mut self) -> bool {
-        let target = BUDGET_LEVELS_TARGET;
-        let mut resolution = BUDGET_LEVELS_RESOLUTION;
-        let Some(mut bytes) = self.try_more(resolution, target, Levels::FromBudgetMinimum) else {
-            return false;
-        };
-        if bytes <= self.budget {
-            // Finer grids grow by less than their area (level 0 keeps a goal of at most
-            // `max_goal_axis` voxels), so each larger fit is scaled from the last.
-            loop {
-                let larger = scaled_resolution(resolution, bytes, self.budget, 0.9)
-                    .min(BUDGET_MAX_RESOLUTION);
-                if larger <= resolution * 5 / 4 {
-                    return true;
+        let resolution = BUDGET_LEVELS_RESOLUTION;
+        match self.try_more(resolution, BUDGET_LEVELS_TARGET, Levels::FromBudgetMinimum) {
+            Some(bytes) if bytes <= self.budget => {
+                self.levels_larger(resolution, bytes);
+                true
+            }
+            Some(bytes) => self.levels_smaller(resolution, bytes),
+            None => false,
+        }
+    }
+
+    /// Fits with levels at resolutions above `resolution`, whose fit was `bytes` within the
+    /// budget, while the budget leaves room and they are within it. Finer grids grow by less
+    /// than their area (level 0 keeps a goal of at most `max_goal_axis` voxels), so each larger
+    /// fit is scaled from the last.
+    fn levels_larger(&mut self, mut resolution: usize, mut bytes: u64) {
+        loop {
+            let larger =
+                scaled_resolution(resolution, bytes, self.budget, 0.9).min(BUDGET_MAX_RESOLUTION);
+            if larger <= resolution * 5 / 4 {
+                return;
+            }
+            match self.try_more(larger, BUDGET_LEVELS_TARGET, Levels::FromBudgetMinimum) {
+                Some(larger_bytes) if larger_bytes <= self.budget => {
+                    (resolution, bytes) = (larger, larger_bytes);
                 }
-                match self.try_more(larger, target, Levels::FromBudgetMinimum) {
-                    Some(larger_bytes) if larger_bytes <= self.budget => {
-                        (resolution, bytes) = (larger, larger_bytes);
-                    }
-                    _ => return true,
-                }
+                _ => return,
             }
         }
+    }
+
+    /// Fits with levels at resolutions below `resolution`, whose fit was `bytes` above the
+    /// budget, until one is within it (true) or the resolution is below
+    /// [`BUDGET_LEVELS_MIN_RESOLUTION`].
+    fn levels_smaller(&mut self, mut resolution: usize, mut bytes: u64) -> bool {
         while bytes > self.budget {
             resolution = scaled_resolution(resolution, bytes, self.budget, 0.95);
             if resolution < BUDGET_LEVELS_MIN_RESOLUTION {
                 return false;
             }
-            let Some(smaller) = self.try_more(resolution, target, Levels::FromBudgetMinimum) else {
+            let Some(smaller) =
+                self.try_more(resolution, BUDGET_LEVELS_TARGET, Levels::FromBudgetMinimum)
+            else {
                 return false;
             };
             bytes = smaller;
