@@ -150,9 +150,20 @@ pub struct Entry {
     /// How thick the goal's solid is (see [`crate::fit::Thickness`]).
     #[serde(default)]
     pub thickness: Option<crate::fit::Thickness>,
-    /// The fit's warnings (see [`crate::pipeline::warnings`]): an open mesh, thin walls.
+    /// The fit's warnings (see [`crate::pipeline::Fitted::warnings`]): an open mesh, thin
+    /// walls, a target not met, faces inside the mesh's own solid.
     #[serde(default)]
     pub warnings: Vec<String>,
+    /// The target E asked for and reached (see [`crate::fit::TargetOutcome`]).
+    #[serde(default)]
+    pub target: Option<crate::fit::TargetOutcome>,
+    /// Why the fit stopped: the paper's loop (level 0), then its detail levels if any.
+    #[serde(default)]
+    pub stopped: Option<String>,
+    /// The model's polygonized surface against the mesh, both ways, with the share of the mesh
+    /// inside its own solid (see [`crate::surface_distance::MeshDistances`]).
+    #[serde(default)]
+    pub mesh_distance: Option<crate::surface_distance::MeshDistances>,
     /// What made the outputs (for a failure, what was tried, when the input could be read).
     pub origin: Option<Origin>,
     /// Whether this run reused the outputs of an earlier one.
@@ -354,8 +365,30 @@ fn ok_entry(job: &Job, fitted: &Fitted, origin: Origin, seconds: f64) -> Entry {
         winding_near_half: Some(fitted.inside.winding_near_half),
         thickness: fitted.report.thickness,
         warnings: fitted.warnings(),
+        target: fitted.report.target,
+        stopped: Some(stopped(&fitted.report)),
+        mesh_distance: fitted.report.mesh_distance,
         origin: Some(origin),
         reused: false,
+    }
+}
+
+/// Why the fit of `report` stopped, in words: its loop's termination, then its levels'.
+fn stopped(report: &crate::fit::FitReport) -> String {
+    match &report.levels {
+        Some(levels) => format!("{}; detail levels: {}", report.termination, levels.stopped),
+        None => report.termination.to_string(),
+    }
+}
+
+impl Entry {
+    /// How far apart the model and the mesh are at worst, in voxels: the larger of the two
+    /// 99.9th percentiles, the mesh's taken over the faces that bound its solid where some lie
+    /// inside it; `None` for a failure.
+    pub fn worst_p999(&self) -> Option<f64> {
+        let d = self.mesh_distance?;
+        let mesh_side = d.solid_to_model.unwrap_or(d.mesh_to_model);
+        Some(mesh_side.p99_9.max(d.model_to_mesh.p99_9))
     }
 }
 
@@ -374,6 +407,9 @@ pub fn failed_entry(job: &Job, error: String, origin: Option<Origin>, seconds: f
         winding_near_half: None,
         thickness: None,
         warnings: Vec::new(),
+        target: None,
+        stopped: None,
+        mesh_distance: None,
         origin,
         reused: false,
     }
@@ -410,6 +446,40 @@ pub fn run(
             })
             .collect()
     }))
+}
+
+/// The meshes a batch's summary names, at most.
+pub const WORST_SHOWN: usize = 5;
+
+/// A batch's quality summary, one line each: how many fits ended above their target, and the
+/// [`WORST_SHOWN`] models farthest from their meshes ([`Entry::worst_p999`]), worst first, with
+/// their E and why they stopped. Empty when no mesh was fitted.
+pub fn summary(entries: &[Entry]) -> Vec<String> {
+    let mut fitted: Vec<(&Entry, f64)> =
+        entries.iter().filter_map(|e| Some((e, e.worst_p999()?))).collect();
+    if fitted.is_empty() {
+        return Vec::new();
+    }
+    let mut lines = Vec::new();
+    let above = entries.iter().filter(|e| e.target.is_some_and(|t| !t.met)).count();
+    if above > 0 {
+        lines.push(format!("{above} of {} fits ended above their target", fitted.len()));
+    }
+    fitted.sort_by(|a, b| b.1.total_cmp(&a.1));
+    lines.push("farthest from their meshes (the larger 99.9th percentile of the two ways):".into());
+    for (entry, p999) in fitted.into_iter().take(WORST_SHOWN) {
+        let target = entry.target.map_or(String::new(), |t| {
+            let met = if t.met { "met" } else { "not met" };
+            format!(", target {:.2} {met}", t.target_voxels)
+        });
+        lines.push(format!(
+            "  {}: {p999:.2} voxels, E {:.2}{target}; stopped: {}",
+            entry.input,
+            entry.max_error_voxels.unwrap_or(f32::NAN),
+            entry.stopped.as_deref().unwrap_or("unknown")
+        ));
+    }
+    lines
 }
 
 /// Writes `out/manifest.jsonl`: one JSON line per entry, in order.

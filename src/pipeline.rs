@@ -102,6 +102,12 @@ pub struct MeshFitOptions {
     /// walls. `None` (default): the solid. Absent from the serialized options when `None`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shell: Option<Shell>,
+    /// Fit the solid an open mesh's winding numbers guess even where more than
+    /// [`voxelize::Ambiguity::REFUSED`] of the grid is a guess, which is refused otherwise
+    /// (see [`voxelize::Ambiguity::refusal`]); no effect with `shell`. Absent from the
+    /// serialized options when `false`.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub solid: bool,
     /// A byte budget: the most accurate model whose binary file has at most this many bytes,
     /// choosing the resolution, the target E and the detail levels (see [`fit()`]); `resolution`
     /// and `fit.target_error` are then the search's. `None` (default): the fit as set. Absent
@@ -968,6 +974,12 @@ impl<'a> Prepared<'a> {
         let volumes = |goal_grid: &Grid| -> Result<(Voxelized, Volume<f32>, Thickness)> {
             let voxelized = voxelize::voxelize(mesh, goal_grid, &options.voxelize)
                 .map_err(|e| e.in_context(source))?;
+            if options.shell.is_none()
+                && !options.solid
+                && let Some(refusal) = voxelized.inside.ambiguity.refusal(source)
+            {
+                return Err(refusal);
+            }
             let sd = distance::signed_distance(&distance::inside(&voxelized.density));
             let thickness = Thickness::measure(&sd, mesh, &query, options.fit.seed);
             Ok((voxelized, sd, thickness))
@@ -998,13 +1010,7 @@ impl<'a> Prepared<'a> {
                 let mut goal =
                     Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
                 if options.has_levels(&grid) {
-                    // As many points on the mesh as the grid asked for has surface voxels.
-                    let scale = goal_grid.voxel_size / grid.voxel_size;
-                    let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
-                    if let Some(points) = surface_distance::sample(mesh, n, options.fit.seed) {
-                        let agreement = fit::MESH_AGREEMENT * scale as f32;
-                        goal = goal.with_mesh_points(points, agreement);
-                    }
+                    goal = with_mesh_points(goal, mesh, &grid, options.fit.seed);
                 }
                 match options.fit.error_measure {
                     ErrorMeasure::SubVoxel => goal.with_mesh(query.clone()),
@@ -1141,6 +1147,7 @@ impl<'a> Prepared<'a> {
         report.timings_s.signed_distance += self.goal_seconds;
         report.timings_s.total += self.goal_seconds;
         report.winding_near_half = Some(self.inside.winding_near_half);
+        report.target = Some(report.target_outcome(options.error_measure, options.target_error));
         let goal_scale = self.goal.grid().voxel_size / self.grid.voxel_size;
         report.thickness = Some(self.thickness.in_smaller_voxels(goal_scale));
         let grid = self.grid;
@@ -1186,6 +1193,18 @@ impl<'a> Prepared<'a> {
     }
 }
 
+/// `goal` with points on `mesh` for its detail levels ([`Goal::with_mesh_points`]): as many as
+/// `grid`, the grid asked for, has surface voxels, kept where they agree with the goal within
+/// [`fit::MESH_AGREEMENT`] of `grid`'s voxels.
+fn with_mesh_points(goal: Goal, mesh: &Mesh, grid: &Grid, seed: u64) -> Goal {
+    let scale = goal.grid().voxel_size / grid.voxel_size;
+    let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
+    match surface_distance::sample(mesh, n, seed) {
+        Some(points) => goal.with_mesh_points(points, fit::MESH_AGREEMENT * scale as f32),
+        None => goal,
+    }
+}
+
 /// Warnings (one line each, no file name, settings backquoted as in errors, see
 /// [`crate::error::worded`]) about a fit on a grid of `dims` whose inside was decided as
 /// `inside`: a mesh open enough that its inside is a guess
@@ -1202,11 +1221,68 @@ pub fn warnings(
     inside.ambiguity.warning().into_iter().chain(thin).collect()
 }
 
+/// A warning (one line, no file name) when a fit ended above its target: the E reached and the
+/// target, why it stopped, and where the mesh lies farthest from the model; for a fit of the
+/// paper's loop that stopped improving, that a grid from [`fit::LevelOptions::min_axis`] voxels adds
+/// detail levels where it stalls.
+pub fn above_target(report: &FitReport) -> Option<String> {
+    let target = report.target.filter(|t| !t.met)?;
+    let stopped = match &report.levels {
+        Some(levels) => format!("its detail levels stopped: {}", levels.stopped),
+        None => format!("it stopped: {}", report.termination),
+    };
+    let farthest = report.mesh_distance.map(|d| {
+        let [x, y, z] = d.mesh_to_model.farthest;
+        format!(
+            "; the mesh lies farthest from the model ({:.1} voxels) at ({x:.4}, {y:.4}, {z:.4})",
+            d.mesh_to_model.max
+        )
+    });
+    let stalled = report.levels.is_none()
+        && matches!(
+            report.termination,
+            Termination::NoImprovement { .. } | Termination::NoCandidate
+        );
+    let finer = stalled.then(|| {
+        format!(
+            "; at `resolution={}` or finer, detail levels correct what the paper's loop misses",
+            fit::LevelOptions::default().min_axis
+        )
+    });
+    Some(format!(
+        "the fit ended above its target: E {:.2} voxels for a target of {:.2}; {stopped}{}{}",
+        target.reached_voxels,
+        target.target_voxels,
+        farthest.unwrap_or_default(),
+        finer.unwrap_or_default()
+    ))
+}
+
+/// A warning (one line, no file name) when more than
+/// [`surface_distance::INTERIOR_NOTABLE`] of the mesh's surface lies inside its own solid
+/// ([`surface_distance::interior`]): faces no solid's surface holds, which the model leaves
+/// out; with how close the rest of the mesh is to the model.
+pub fn interior_surface(report: &FitReport) -> Option<String> {
+    let d = report.mesh_distance?;
+    let rest = d.solid_to_model?;
+    Some(format!(
+        "{:.1}% of the mesh's surface lies inside its own solid (faces with the solid on both \
+         sides, such as overlapping parts), which no solid's surface holds; the rest of the mesh \
+         lies within {:.2} voxels of the model (99.9%)",
+        100.0 * d.interior,
+        rest.p99_9
+    ))
+}
+
 impl Fitted {
     /// What a user should know of this fit (see [`warnings`]).
     pub fn warnings(&self) -> Vec<String> {
         let shell = self.report.shell_voxels.map(Shell::Voxels);
-        warnings(&self.inside, self.report.thickness.as_ref(), shell, self.report.dims)
+        let mut warnings =
+            warnings(&self.inside, self.report.thickness.as_ref(), shell, self.report.dims);
+        warnings.extend(above_target(&self.report));
+        warnings.extend(interior_surface(&self.report));
+        warnings
     }
 
     /// Embeds the report in the model as the JSON model file keeps it, and records the size of

@@ -95,6 +95,80 @@ fn the_report_measures_the_polygonized_model_against_the_mesh() {
     }
 }
 
+/// A fit stopped by its iteration limit above its target (0.3 voxels, below E's least step of
+/// one half) says so: the report's `target` is not
+/// met and holds the E reached, and a warning (one line) gives both, why it stopped and where
+/// the mesh lies farthest from the model: the report's farthest sample, which lies on the mesh
+/// and at the report's largest distance from the polygonized model. A fit within its target
+/// has no such warning.
+#[test]
+fn a_fit_that_ends_above_its_target_says_where() {
+    let ball = sphere(DVec3::new(0.3, -0.2, 0.1), 1.0, 24, 48);
+    let mut options = with_iterations(1);
+    options.target_error = 0.3;
+    let stopped = fit_mesh(&ball, 32, &options);
+    let target = stopped.report.target.expect("a mesh's fit records its target");
+    assert!(!target.met && target.reached_voxels > target.target_voxels, "{target:?}");
+    assert_eq!(target.reached_voxels, stopped.report.max_error_voxels);
+    let warnings = stopped.warnings();
+    let warning = warnings
+        .iter()
+        .find(|w| w.contains("ended above its target"))
+        .unwrap_or_else(|| panic!("no warning of the target in {warnings:?}"));
+    assert!(!warning.contains('\n'), "{warning}");
+    assert!(warning.contains(&format!("E {:.2} voxels", target.reached_voxels)), "{warning}");
+    assert!(warning.contains("iteration limit") || warning.contains("iterations"), "{warning}");
+    let d = stopped.report.mesh_distance.expect("measured");
+    let farthest = DVec3::from_array(d.mesh_to_model.farthest);
+    let on_mesh = (0..ball.triangles.len())
+        .map(|t| point_triangle_distance(farthest, ball.corners(t)))
+        .fold(f64::INFINITY, f64::min);
+    assert!(on_mesh < 1e-9, "the farthest sample lies {on_mesh} off the mesh");
+    let voxel = stopped.model.grid().unwrap().voxel_size;
+    let to_model = vertex_distances(
+        &Mesh { vertices: vec![farthest], triangles: Vec::new() },
+        &stopped.surface,
+        voxel,
+    )[0];
+    assert!((to_model - d.mesh_to_model.max).abs() < 1e-6, "{to_model} against {d:?}");
+
+    let met = fit_mesh(&ball, 32, &FitOptions::default());
+    assert!(met.report.target.is_some_and(|t| t.met), "{:?}", met.report.target);
+    assert!(met.warnings().iter().all(|w| !w.contains("above its target")));
+}
+
+/// Two unit spheres whose centres are one apart, overlapping: the cap of each inside the other
+/// (height 1/2, a quarter of its sphere's area) has the solid on both sides. The report counts
+/// that share of the mesh as interior (within 0.01 of 1/4), measures the rest apart, which the
+/// model holds within the target, and warns in one line; one sphere alone has no interior.
+#[test]
+fn faces_inside_the_mesh_s_own_solid_are_counted_and_left_out() {
+    let a = sphere(DVec3::ZERO, 1.0, 24, 48);
+    let b = sphere(DVec3::X, 1.0, 24, 48);
+    let offset = a.vertices.len() as u32;
+    let both = Mesh {
+        vertices: a.vertices.iter().chain(&b.vertices).copied().collect(),
+        triangles: a
+            .triangles
+            .iter()
+            .copied()
+            .chain(b.triangles.iter().map(|t| t.map(|i| i + offset)))
+            .collect(),
+    };
+    let fitted = fit_mesh(&both, 32, &FitOptions::default());
+    let d = fitted.report.mesh_distance.expect("measured");
+    assert!((d.interior - 0.25).abs() < 0.01, "{d:?}");
+    let rest = d.solid_to_model.expect("the rest is measured apart");
+    assert!(rest.p99_9 <= 2.0 && rest.max < d.mesh_to_model.max, "{d:?}");
+    let warnings = fitted.warnings();
+    let share =
+        format!("{:.1}% of the mesh's surface lies inside its own solid", 100.0 * d.interior);
+    assert!(warnings.iter().any(|w| w.starts_with(&share)), "{warnings:?}");
+    let alone = fit_mesh(&a, 32, &FitOptions::default());
+    let d = alone.report.mesh_distance.expect("measured");
+    assert!(d.interior < 0.001 && d.solid_to_model.is_none(), "{d:?}");
+}
+
 /// A fit whose target is set on the sub-voxel E, measured against the mesh's exact distance,
 /// reaches a target of half a voxel, and the polygonized surface is that close to the mesh by
 /// the report's own, independent, measure.

@@ -41,8 +41,46 @@ fn fit_or_refusal(mesh: &Mesh, name: &str) -> Result<f32, String> {
             assert!(message.contains("voxels thick") && message.contains("--shell 2"), "{message}");
             Err(message)
         }
+        Err(error @ Error::Invalid { .. }) if error.to_string().contains("the mesh is open") => {
+            let message = error.worded(FrontEnd::Cli);
+            assert!(!message.contains('\n'), "{message}");
+            assert!(message.contains("--shell 2") && message.contains("--solid"), "{message}");
+            Err(message)
+        }
         Err(other) => panic!("{name}: neither a fit nor a refusal: {other}"),
     }
+}
+
+/// An open hemisphere's winding number is near one half over more than a fifth of the grid:
+/// its fit is refused before any iteration, in one line naming the file, the fraction and what
+/// works (`shell`, `solid`), worded for each front end; `solid` fits the guessed solid anyway
+/// (with the warning), and `shell` fits the surface.
+#[test]
+fn a_mesh_open_over_much_of_the_grid_is_refused_unless_asked_for() {
+    let hemisphere = open_hemisphere(1.0, 24, 48);
+    let error = Prepared::new(&hemisphere, "hemisphere.obj", &options()).unwrap_err();
+    let message = error.worded(FrontEnd::Cli);
+    assert!(message.starts_with("hemisphere.obj: the mesh is open"), "{message}");
+    let percent: f64 = message
+        .split("near one half in ")
+        .nth(1)
+        .and_then(|rest| rest.split('%').next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no fraction in {message}"));
+    assert!(percent > 100.0 * implicitize::voxelize::Ambiguity::REFUSED, "{message}");
+    assert!(message.contains("(--shell 2)") && message.contains("(--solid)"), "{message}");
+    let python = error.worded(FrontEnd::Python);
+    assert!(python.contains("(shell=2)") && python.contains("(solid)"), "{python}");
+
+    let mut solid = options();
+    solid.solid = true;
+    solid.fit.max_iterations = 2;
+    let fitted = pipeline::fit_mesh(&hemisphere, &solid).unwrap();
+    assert!(fitted.warnings().iter().any(|w| w.contains("the mesh is open")));
+    let mut shell = options();
+    shell.shell = Some(Shell::Voxels(2.0));
+    shell.fit.max_iterations = 2;
+    assert!(Prepared::new(&hemisphere, "hemisphere.obj", &shell).is_ok());
 }
 
 /// The resolution a refusal names, if any.
@@ -156,7 +194,8 @@ fn shells_fit_within_their_target_both_ways() {
 
 /// A solid the grid holds with much of it on thin walls (the triceratops at 48 voxels: legs,
 /// horns and frill about 3 voxels thick) is fitted with a warning naming the walls and a grid
-/// that holds them; a shell of the same mesh is not warned about its walls.
+/// that holds them (beside the warning that two iterations ended above the target); a shell of
+/// the same mesh is not warned about its walls.
 #[test]
 fn thin_walls_that_are_fitted_are_warned_about() {
     let (mesh, _) = implicitize::mesh::read(implicitize_test_support::data::triceratops()).unwrap();
@@ -164,14 +203,16 @@ fn thin_walls_that_are_fitted_are_warned_about() {
     fast.fit.max_iterations = 2;
     let fitted = pipeline::fit_mesh(&mesh, &fast).unwrap();
     let warnings = fitted.warnings();
-    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert_eq!(warnings.len(), 2, "{warnings:?}");
     let warning = &warnings[0];
     assert!(warning.contains("of the surface is on walls about"), "{warning}");
+    assert!(warnings[1].contains("ended above its target"), "{warnings:?}");
     let named = named_resolution(&implicitize::error::worded(warning, FrontEnd::Cli));
     assert!(named.is_some_and(|n| n > RESOLUTION), "{warning}");
     let mut shell = fast.clone();
     shell.shell = Some(Shell::Voxels(2.0));
-    assert!(pipeline::fit_mesh(&mesh, &shell).unwrap().warnings().is_empty());
+    let warnings = pipeline::fit_mesh(&mesh, &shell).unwrap().warnings();
+    assert!(warnings.iter().all(|w| !w.contains("walls about")), "{warnings:?}");
 }
 
 /// A shell fit records its thickness in its report, in voxels whichever unit it was given in,

@@ -231,6 +231,7 @@ def fit(
     full_resolution: bool = False,
     levels: Optional[int] = None,
     shell: Union[float, str, None] = None,
+    solid: bool = False,
     max_bytes: Optional[int] = None,
     memory_limit: _Memory = None,
 ) -> Model:
@@ -249,6 +250,9 @@ def fit(
     iteration on stderr;
     ``shell`` fits the surface thickened to that thickness in all (a number of voxels, or a
     string such as ``"0.01u"`` in mesh units), for open shells and walls too thin for the grid;
+    a mesh so open that its inside is a guess over more than a fifth of the grid (winding
+    numbers near one half) raises ``ValueError`` unless ``shell`` is given or ``solid`` is true,
+    which fits the guessed solid anyway;
     ``max_bytes`` returns the most accurate model whose binary file (``Model.save``) has at most
     that many bytes, choosing the resolution, target and detail levels (the report's
     ``byte_budget`` lists the fits tried), and raises ``ValueError`` naming the smallest size
@@ -268,6 +272,7 @@ def fit(
         full_resolution=full_resolution,
         levels=None if levels is None else int(levels),
         shell=shell,
+        solid=bool(solid),
         max_bytes=None if max_bytes is None else int(max_bytes),
         progress=progress,
         memory_limit=memory_limit,

@@ -133,6 +133,7 @@ def fit(
     full_resolution: bool = False,
     levels: Optional[int] = None,
     shell: Union[float, str, None] = None,
+    solid: bool = False,
     max_bytes: Optional[int] = None,
     memory_limit: _Memory = None,
 ) -> Model:

@@ -86,6 +86,11 @@ def _parser() -> argparse.ArgumentParser:
         "--shell", help="fit the surface thickened to T: voxels (as 2) or mesh units (as 0.01u)"
     )
     parser.add_argument(
+        "--solid",
+        action="store_true",
+        help="fit the guessed solid of a mesh whose inside is a guess over much of the grid",
+    )
+    parser.add_argument(
         "--max-bytes",
         type=int,
         help="the most accurate model whose binary file has at most this many bytes",
@@ -110,6 +115,7 @@ def _options(args: argparse.Namespace) -> Dict[str, Any]:
         "full_resolution": args.full_resolution,
         "levels": args.levels,
         "shell": args.shell,
+        "solid": args.solid,
         "max_bytes": args.max_bytes,
         "sdf": args.sdf,
         "samples": args.samples,
@@ -178,7 +184,10 @@ def run(
         if not quiet:
             print(lines[i], file=sys.stderr)
     done = [line for line in lines if line is not None]
-    _implicitize.batch_manifest(out_dir, done)
+    summary = _implicitize.batch_manifest(out_dir, done)
+    if not quiet:
+        for line in summary:
+            print(line, file=sys.stderr)
     return done
 
 

@@ -27,7 +27,7 @@ pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
 #[pyfunction]
 #[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=None,
                     seed=None, max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, levels=None, shell=None, max_bytes=None,
+                    subvoxel=false, full_resolution=false, levels=None, shell=None, solid=false, max_bytes=None,
                     sdf=false, samples=None, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn batch_convert(
@@ -46,6 +46,7 @@ pub fn batch_convert(
     full_resolution: bool,
     levels: Option<i64>,
     shell: Option<ShellArg>,
+    solid: bool,
     max_bytes: Option<i64>,
     sdf: bool,
     samples: Option<i64>,
@@ -71,6 +72,7 @@ pub fn batch_convert(
         full_resolution,
         levels,
         shell,
+        solid,
         max_bytes,
         memory_limit,
     }
@@ -97,14 +99,16 @@ pub fn batch_failed(input: PathBuf, name: String, error: String) -> PyResult<Str
     line(&batch::failed_entry(&Job { input, name }, error, None, 0.0))
 }
 
-/// Writes `out_dir/manifest.jsonl` from the lines, in order (atomically).
+/// Writes `out_dir/manifest.jsonl` from the lines, in order (atomically); returns the batch's
+/// quality summary (`implicitize::batch::summary`), one line each.
 #[pyfunction]
-pub fn batch_manifest(out_dir: PathBuf, lines: Vec<String>) -> PyResult<()> {
+pub fn batch_manifest(out_dir: PathBuf, lines: Vec<String>) -> PyResult<Vec<String>> {
     let entries = lines
         .iter()
         .map(|l| serde_json::from_str::<Entry>(l).map_err(|e| invalid(format!("{l}: {e}"))))
         .collect::<PyResult<Vec<_>>>()?;
-    batch::write_manifest(Path::new(&out_dir), &entries).map_err(to_py)
+    batch::write_manifest(Path::new(&out_dir), &entries).map_err(to_py)?;
+    Ok(batch::summary(&entries))
 }
 
 fn line(entry: &Entry) -> PyResult<String> {

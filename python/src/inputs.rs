@@ -214,6 +214,8 @@ pub struct FitArgs {
     /// Fit the surface thickened to this (`shell=`): voxels as a number, mesh units as a
     /// string with the suffix `u`.
     pub shell: Option<ShellArg>,
+    /// Fit the guessed solid of a mesh open over much of the grid (`solid=`).
+    pub solid: bool,
     /// The most accurate model within this many bytes of binary model file (`max_bytes=`).
     pub max_bytes: Option<i64>,
     /// The memory the fit may use.
@@ -275,6 +277,7 @@ impl FitArgs {
                 .map_err(|_| invalid(format!("levels must be a count of 0 or more, not {n}")))?;
         }
         options.shell = self.shell.map(ShellArg::shell).transpose()?;
+        options.solid = self.solid;
         if let Some(n) = self.max_bytes {
             options.max_bytes =
                 Some(u64::try_from(n).ok().filter(|&n| n > 0).ok_or_else(|| {

@@ -267,7 +267,7 @@ impl FitObserver for Progress {
 #[pyfunction]
 #[pyo3(signature = (mesh, resolution=None, dims=None, target_error=None, seed=None,
                     max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, levels=None, shell=None,
+                    subvoxel=false, full_resolution=false, levels=None, shell=None, solid=false,
                     max_bytes=None, progress=false, memory_limit=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit(
@@ -284,6 +284,7 @@ pub fn fit(
     full_resolution: bool,
     levels: Option<i64>,
     shell: Option<ShellArg>,
+    solid: bool,
     max_bytes: Option<i64>,
     progress: bool,
     memory_limit: Option<MemoryArg>,
@@ -300,6 +301,7 @@ pub fn fit(
         full_resolution,
         levels,
         shell,
+        solid,
         max_bytes,
         memory_limit,
     }

@@ -87,3 +87,42 @@ def test_bad_points_and_pictures_are_valueerrors(triceratops):
 def test_not_a_mesh_is_a_typeerror():
     with pytest.raises(TypeError, match="mesh: expected a path"):
         implicitize.fit(42)
+
+
+def open_hemisphere(rings=12, segments=24):
+    """The upper half of a unit sphere, open along its equator."""
+    vertices = [(0.0, 0.0, 1.0)]
+    for r in range(1, rings + 1):
+        polar = 0.5 * np.pi * r / rings
+        for s in range(segments):
+            azimuth = 2 * np.pi * s / segments
+            vertices.append(
+                (np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar))
+            )
+    faces = [(0, 1 + s, 1 + (s + 1) % segments) for s in range(segments)]
+    for r in range(1, rings):
+        a, b = 1 + (r - 1) * segments, 1 + r * segments
+        for s in range(segments):
+            t = (s + 1) % segments
+            faces += [(a + s, b + s, b + t), (a + s, b + t, a + t)]
+    return np.array(vertices), np.array(faces)
+
+
+def test_a_mesh_open_over_much_of_the_grid_is_refused_unless_solid(tmp_path, run):
+    vertices, faces = open_hemisphere()
+    path = tmp_path / "bowl.obj"
+    lines = [f"v {x} {y} {z}" for x, y, z in vertices]
+    lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in faces]
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError) as raised:
+        implicitize.fit(path, resolution=48)
+    python = str(raised.value)
+    assert "near one half" in python and "(shell=2)" in python and "(solid)" in python
+    cli = cli_message(run, "fit", path, "-o", tmp_path / "m.imp", "--resolution", "48")
+    assert cli.startswith(f"{path}: the mesh is open") and "(--solid)" in cli
+    assert python == cli.replace("--shell 2", "shell=2").replace("--solid", "solid")
+    with pytest.warns(UserWarning, match="the mesh is open"):
+        model = implicitize.fit(path, resolution=48, solid=True, max_iterations=1)
+    target = model.report["target"]
+    assert target["reached_voxels"] == pytest.approx(model.report["max_error_voxels"])
+    assert target["met"] == (target["reached_voxels"] <= target["target_voxels"])

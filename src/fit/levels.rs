@@ -152,6 +152,35 @@ pub struct LevelsReport {
     pub rms_error_subvoxel_voxels: f32,
     /// Each detail level, coarsest first.
     pub levels: Vec<LevelReport>,
+    /// Why no further level was added.
+    pub stopped: LevelsStop,
+}
+
+/// Why a multi-scale fit added no further detail level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LevelsStop {
+    /// Every point within the target and no band voxel on the wrong side.
+    TargetMet,
+    /// The next level's support would be below [`LevelOptions::min_radius`].
+    SmallestRadius,
+    /// [`LevelOptions::max_levels`] levels were added.
+    LevelLimit,
+    /// No point or band voxel was worth a centre.
+    NoCentre,
+}
+
+impl std::fmt::Display for LevelsStop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            LevelsStop::TargetMet => "the target was met",
+            LevelsStop::SmallestRadius => {
+                "the next level's support would be below the least radius"
+            }
+            LevelsStop::LevelLimit => "the level limit was reached",
+            LevelsStop::NoCentre => "no point was worth a centre",
+        })
+    }
 }
 
 impl LevelsReport {
@@ -168,6 +197,7 @@ impl LevelsReport {
                 level.max_error_voxels
             );
         }
+        let _ = writeln!(s, "detail levels stopped: {}", self.stopped);
     }
 }
 
@@ -393,12 +423,17 @@ fn add_levels(
     let mut levels = Vec::new();
     let mut reports = Vec::new();
     let target = f64::from(options.target_error);
+    let mut stopped = LevelsStop::LevelLimit;
     for k in 0..options.levels.max_levels {
         let radius = first_radius / f64::from(1u32 << k.min(30));
         let wrong = off.wrong_sides();
         let (max, _) = error_figures(&residual);
-        let done = max <= target && wrong.is_empty() && !outside(&residual);
-        if done || radius < options.levels.min_radius * voxel {
+        if max <= target && wrong.is_empty() && !outside(&residual) {
+            stopped = LevelsStop::TargetMet;
+            break;
+        }
+        if radius < options.levels.min_radius * voxel {
+            stopped = LevelsStop::SmallestRadius;
             break;
         }
         let level_clock = Instant::now();
@@ -408,6 +443,7 @@ fn add_levels(
         errors.extend(wrong.iter().map(|w| w.1 * goal_scale));
         let chosen = choose_centres(&candidates, &errors, radius, target, &options.levels);
         if chosen.is_empty() {
+            stopped = LevelsStop::NoCentre;
             break;
         }
         let lattice = compact::level_lattice(radius, grid, &options.precision);
@@ -463,6 +499,7 @@ fn add_levels(
         base_p999_error_voxels: base_p999,
         points: data_points,
         levels: reports,
+        stopped,
     };
     let mut report = super::report_of(grid, &metrics, base.best_iteration, base.termination, log);
     report.levels = Some(levels_report);

@@ -44,10 +44,10 @@ use crate::rbf::{self, Implicit, Kernel};
 pub use compact::Precision;
 pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
-pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport};
+pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport, LevelsStop};
 pub use report::{
-    BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, Termination,
-    Timings,
+    BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport,
+    TargetOutcome, Termination, Timings,
 };
 pub use thickness::Thickness;
 
@@ -213,7 +213,7 @@ impl FitOptions {
 }
 
 /// How the fit measures E against its target.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ErrorMeasure {
     /// The paper's E (equation 3): distances from voxel centres, in the voxel grid's steps
@@ -367,6 +367,7 @@ fn report_of(
         levels: None,
         mesh_distance: None,
         byte_budget: None,
+        target: None,
     }
 }
 

@@ -58,6 +58,7 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
         levels: None,
         mesh_distance: None,
         byte_budget: None,
+        target: None,
     };
     Ok(super::Fit { implicit, report })
 }

@@ -308,6 +308,48 @@ pub struct FitReport {
     /// otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub byte_budget: Option<ByteBudget>,
+    /// For a mesh's fit, the target E asked for and the E the model reached, by the fit's
+    /// measure; `None` for a goal given as densities.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target: Option<TargetOutcome>,
+}
+
+/// The target E a fit was asked for and what it reached.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+pub struct TargetOutcome {
+    /// How E was measured.
+    pub measure: super::ErrorMeasure,
+    /// The target E, voxels.
+    pub target_voxels: f32,
+    /// The model's E by that measure, voxels.
+    pub reached_voxels: f32,
+    /// Whether `reached_voxels` is within `target_voxels`.
+    pub met: bool,
+}
+
+impl FitReport {
+    /// The model's E by `measure`: for the sub-voxel measure, that of the multi-scale model,
+    /// or of the iteration kept.
+    pub fn error_by(&self, measure: super::ErrorMeasure) -> f32 {
+        let best = self.best_iteration.checked_sub(1).and_then(|i| self.per_iteration.get(i));
+        match (measure, &self.levels, best) {
+            (super::ErrorMeasure::Voxel, ..) => self.max_error_voxels,
+            (super::ErrorMeasure::SubVoxel, Some(levels), _) => levels.max_error_subvoxel_voxels,
+            (super::ErrorMeasure::SubVoxel, None, Some(best)) => best.max_error_subvoxel_voxels,
+            (super::ErrorMeasure::SubVoxel, None, None) => self.max_error_voxels,
+        }
+    }
+
+    /// The outcome of a fit to `target` voxels by `measure`.
+    pub fn target_outcome(&self, measure: super::ErrorMeasure, target: f32) -> TargetOutcome {
+        let reached = self.error_by(measure);
+        TargetOutcome {
+            measure,
+            target_voxels: target,
+            reached_voxels: reached,
+            met: reached <= target,
+        }
+    }
 }
 
 /// What a fit under a byte budget chose: the most accurate of the fits it tried whose binary
@@ -410,6 +452,17 @@ impl FitReport {
                 d.model_to_mesh.p99_9,
                 d.model_to_mesh.mean
             );
+            if let Some(solid) = &d.solid_to_model {
+                let _ = writeln!(
+                    s,
+                    "{:.1}% of the mesh lies inside its own solid; the rest -> model (voxels): \
+                     max {:.2}, 99.9% {:.2}, mean {:.3}",
+                    100.0 * d.interior,
+                    solid.max,
+                    solid.p99_9,
+                    solid.mean
+                );
+            }
         }
         s
     }

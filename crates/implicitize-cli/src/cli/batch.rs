@@ -62,6 +62,9 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     batch::write_manifest(&args.output, &entries)?;
+    for line in batch::summary(&entries) {
+        progress.line(line);
+    }
     let failed = entries.iter().filter(|e| e.status == Status::Failed).count();
     let reused = entries.iter().filter(|e| e.reused).count();
     progress.line(format!(

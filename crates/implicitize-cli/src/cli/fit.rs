@@ -110,6 +110,10 @@ pub struct FitArgs {
     /// voxels (as 2) or in mesh units with the suffix u (as 0.01u)
     #[arg(long, value_name = "T")]
     pub shell: Option<String>,
+    /// Fit the solid an open mesh's winding numbers guess even where much of the grid is a
+    /// guess (more than a fifth of it near one half), which is refused otherwise
+    #[arg(long, conflicts_with = "shell")]
+    pub solid: bool,
     /// Write the most accurate model whose binary file has at most N bytes: fits at the
     /// default resolution, then at smaller or larger ones and with detail levels, and keeps
     /// the nearest to the mesh within N (the report's byte_budget lists them); --resolution
@@ -127,6 +131,7 @@ impl FitArgs {
     pub fn options(&self) -> implicitize::Result<MeshFitOptions> {
         let mut options = MeshFitOptions::default();
         options.shell = self.shell.as_deref().map(str::parse).transpose()?;
+        options.solid = self.solid;
         options.resolution = self.grid.resolution();
         options.method = match self.method {
             Method::Iterative => pipeline::Method::Iterative,
@@ -169,7 +174,8 @@ pub struct FitCommand {
 }
 
 /// What the command line shows of a fit as it runs: the open-mesh warning, a line per
-/// iteration, and the pictures of `--snapshots`.
+/// iteration, and the pictures of `--snapshots` (a fit that ends above its target is warned
+/// about after it).
 struct Watch<'a> {
     progress: Progress,
     source: String,
@@ -284,11 +290,17 @@ fn fit_and_write(
         MeshSource::File(path) => path.display().to_string(),
     };
     progress.stage(format!("voxelizing {source}"));
-    let mut watch = Watch { progress, source, snapshots_dir: snapshots, snapshots: None };
+    let mut watch =
+        Watch { progress, source: source.clone(), snapshots_dir: snapshots, snapshots: None };
     let fitted = pipeline::fit(from, &args.options()?, outputs, &mut watch)?;
     if let Some(snapshots) = watch.snapshots {
         snapshots.finish()?;
     }
     progress.line(fitted.report.table(name));
+    let after =
+        [pipeline::above_target(&fitted.report), pipeline::interior_surface(&fitted.report)];
+    for warning in after.into_iter().flatten() {
+        warn(&source, &warning);
+    }
     Ok(fitted)
 }
