@@ -266,12 +266,14 @@ def check_sums(corpus, update: bool) -> None:
 
 def fit_one(binary: str, path: Path, out: Path, args) -> dict:
     """`batch` on one mesh under /usr/bin/time: its manifest line, wall time and peak memory."""
+    for old in out.glob(f"{path.stem}.*"):
+        old.unlink()  # a fresh fit, so that its time and memory are measured
     timing = out / f"{path.stem}.time"
     command = ["/usr/bin/time", "-f", "%e %M", "-o", str(timing), binary, "batch", str(path),
-               "-o", str(out), "--quiet", "--jobs", "1"] + args
+               "-o", str(out), "--quiet"] + args
     subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     seconds, kilobytes = timing.read_text().split()[-2:]
-    entry = json.loads((out / f"{path.stem}.entry.json").read_text())
+    entry = json.loads((out / "manifest.jsonl").read_text().splitlines()[0])
     return {"entry": entry, "wall_s": float(seconds), "peak_mb": int(kilobytes) / 1024}
 
 
@@ -370,7 +372,7 @@ def main() -> None:
     listing = runs / "corpus.txt"
     listing.write_text("".join(f"{path}\n" for _, _, path in corpus))
     said = subprocess.run(
-        [binary, "batch", f"@{listing}", "-o", str(runs), "--jobs", "1"] + fit_args,
+        [binary, "batch", f"@{listing}", "-o", str(runs)] + fit_args,
         capture_output=True, text=True,
     ).stderr.splitlines()
     start = next((i for i, line in enumerate(said) if "meshes converted" in line), 0)

@@ -1131,8 +1131,32 @@ impl<'a> Prepared<'a> {
                 (fitted.shape, fitted.report)
             }
             (Method::Iterative, _) => {
-                let fitted = fit::fit(&self.goal, &options, on_iteration).map_err(thin)?;
-                (Shape::Rbf(fitted.implicit), fitted.report)
+                let mut on_iteration = on_iteration;
+                let fitted = fit::fit(&self.goal, &options, &mut on_iteration).map_err(thin)?;
+                if fit::levels::stalled(&fitted.report, &self.grid, &options) {
+                    // Detail levels go on where the paper's loop stalled: the better of the two.
+                    let levelled = fit::levels::after_stall(&options);
+                    self.goal = with_mesh_points(self.goal, self.mesh, &self.grid, options.seed);
+                    self.levels_estimate().check(self.limit, || None)?;
+                    let again =
+                        fit::levels::fit(&mut self.goal, &self.grid, &levelled, &mut on_iteration)
+                            .map_err(thin)?;
+                    let measure = options.error_measure;
+                    if again.report.error_by(measure) < fitted.report.error_by(measure) {
+                        let mut report = again.report;
+                        report.timings_s.add(&fitted.report.timings_s);
+                        report.stalled_loop = Some(fit::StalledLoop {
+                            termination: fitted.report.termination,
+                            iterations: fitted.report.iterations,
+                            max_error_voxels: fitted.report.max_error_voxels,
+                        });
+                        (again.shape, report)
+                    } else {
+                        (Shape::Rbf(fitted.implicit), fitted.report)
+                    }
+                } else {
+                    (Shape::Rbf(fitted.implicit), fitted.report)
+                }
             }
             (Method::Naive, _) => {
                 let fitted = fit::naive::fit(self.mesh, &self.goal, &options)?;

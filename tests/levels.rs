@@ -4,7 +4,7 @@
 
 use std::sync::OnceLock;
 
-use implicitize::fit::FitOptions;
+use implicitize::fit::{FitOptions, Termination};
 use implicitize::levels::MultiScale;
 use implicitize::morph::{self, Morph, MorphOptions};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions};
@@ -259,4 +259,31 @@ fn level_0_fits_at_a_quarter_of_the_resolution() {
     let longest = *report.base_dims.iter().max().unwrap();
     assert!((32..=36).contains(&longest), "{:?}", report.base_dims);
     assert_eq!(report.levels[0].radius_voxels, 16.0);
+}
+
+/// A fit of the paper's loop that stalls above its target on a grid below the levels' own
+/// (the triceratops at 128 voxels to a target of 1, its patience cut to three iterations) is fitted again with detail
+/// levels, and the better of the two is kept: the report says how the loop stalled, and a model
+/// with levels is nearer the goal than the loop left it. Without levels nothing is tried again.
+#[test]
+fn a_fit_that_stalls_goes_on_with_detail_levels() {
+    let (mesh, _) = implicitize::mesh::read(implicitize_test_support::data::triceratops()).unwrap();
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(128);
+    options.fit.patience = 3;
+    options.fit.target_error = 1.0;
+    let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
+    let stalled = fitted.report.stalled_loop.expect("the loop stalls with a patience of three");
+    assert!(
+        matches!(stalled.termination, Termination::NoImprovement { .. } | Termination::NoCandidate),
+        "{stalled:?}"
+    );
+    assert!(fitted.report.levels.is_some(), "kept: the fit with levels");
+    assert!(fitted.report.max_error_voxels < stalled.max_error_voxels, "{stalled:?}");
+    assert!(fitted.report.table("t").contains("fitted again with detail levels"));
+
+    options.fit.levels.max_levels = 0;
+    let without = pipeline::fit_mesh(&mesh, &options).unwrap();
+    assert!(without.report.stalled_loop.is_none() && without.report.levels.is_none());
+    assert_eq!(without.report.max_error_voxels, stalled.max_error_voxels);
 }

@@ -220,6 +220,25 @@ pub fn applies(grid: &Grid, options: &FitOptions) -> bool {
         && coarse::CoarseStart::wanted(grid, options)
 }
 
+/// Whether a fit of the paper's loop that ended with `report` stalled above its target (no
+/// improvement, no candidate) on a grid where detail levels could go on: levels on, and a
+/// pyramid below the grid (see [`after_stall`]).
+pub fn stalled(report: &FitReport, grid: &Grid, options: &FitOptions) -> bool {
+    let stalled =
+        matches!(report.termination, Termination::NoImprovement { .. } | Termination::NoCandidate);
+    stalled
+        && report.error_by(options.error_measure) > options.target_error
+        && applies(grid, &after_stall(options))
+}
+
+/// The options of the fit with detail levels that follows a fit of the paper's loop that
+/// [`stalled`] on a grid below [`LevelOptions::min_axis`]: levels from any grid with a pyramid.
+pub fn after_stall(options: &FitOptions) -> FitOptions {
+    let mut options = options.clone();
+    options.levels.min_axis = 0;
+    options
+}
+
 /// Bytes per goal surface point a multi-scale fit holds beyond the fit's grids: a point on the
 /// mesh (kept by the goal) and its copy, the point, its
 /// residual and error and their copies as candidates, at worst a centre of the finest level

@@ -46,7 +46,7 @@ pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
 pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport, LevelsStop};
 pub use report::{
-    BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport,
+    BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, StalledLoop,
     TargetOutcome, Termination, Timings,
 };
 pub use thickness::Thickness;
@@ -368,6 +368,7 @@ fn report_of(
         mesh_distance: None,
         byte_budget: None,
         target: None,
+        stalled_loop: None,
     }
 }
 

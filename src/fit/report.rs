@@ -54,6 +54,16 @@ pub struct Timings {
     pub total: f64,
 }
 
+impl Timings {
+    /// Adds `other`'s times to these (a fit made of two).
+    pub fn add(&mut self, other: &Timings) {
+        self.signed_distance += other.signed_distance;
+        self.implicit_evaluation += other.implicit_evaluation;
+        self.misc += other.misc;
+        self.total += other.total;
+    }
+}
+
 /// The grid an iteration ran on.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -312,6 +322,22 @@ pub struct FitReport {
     /// measure; `None` for a goal given as densities.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target: Option<TargetOutcome>,
+    /// For a fit of the paper's loop that stalled above its target on a grid without detail
+    /// levels, and was fitted again with them (see [`super::levels::stalled`]): how that first
+    /// fit ended; absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stalled_loop: Option<StalledLoop>,
+}
+
+/// How a fit of the paper's loop that stalled above its target ended.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StalledLoop {
+    /// Why it stopped.
+    pub termination: Termination,
+    /// Its iterations.
+    pub iterations: usize,
+    /// Its E, voxels.
+    pub max_error_voxels: f32,
 }
 
 /// The target E a fit was asked for and what it reached.
@@ -430,6 +456,14 @@ impl FitReport {
                 levels.write_levels(&mut s);
             }
             Some(levels) => {
+                if let Some(stalled) = &self.stalled_loop {
+                    let _ = writeln!(
+                        s,
+                        "the paper's loop stopped at E {:.2} after {} iterations ({}); fitted \
+                         again with detail levels:",
+                        stalled.max_error_voxels, stalled.iterations, stalled.termination
+                    );
+                }
                 let [bx, by, bz] = levels.base_dims;
                 let _ = writeln!(
                     s,
