@@ -311,8 +311,8 @@ def row(name: str, kind: str, result: dict) -> dict:
     }
 
 
-def fmt(value, digits=2):
-    return "" if value is None else f"{value:.{digits}f}"
+def fmt(value, digits=2, scale=1.0, unit=""):
+    return "" if value is None else f"{value * scale:.{digits}f}{unit}"
 
 
 def table(rows, resolution) -> str:
@@ -326,9 +326,8 @@ def table(rows, resolution) -> str:
         lines.append(
             f"| {r['name']} | {r['kind']} | {r['outcome']} | {r['seconds']:.1f} | "
             f"{r['peak_mb']:.0f} | {fmt(r['E'])} | {fmt(r['mesh_p999'])} | {fmt(r['model_p999'])} | "
-            f"{fmt(r['interior'] and 100 * r['interior'], 1)}% | "
-            f"{fmt(r['near_half'] and 100 * r['near_half'], 1)}% | "
-            f"{fmt(r['thin_surface'] and 100 * r['thin_surface'], 0)}% | {why} |"
+            f"{fmt(r['interior'], 1, 100, '%')} | {fmt(r['near_half'], 1, 100, '%')} | "
+            f"{fmt(r['thin_surface'], 0, 100, '%')} | {why} |"
         )
     count = lambda outcome: sum(r["outcome"] == outcome for r in rows)
     slow = [r["name"] for r in rows if r["seconds"] > 15]

@@ -974,17 +974,19 @@ impl<'a> Prepared<'a> {
         let volumes = |goal_grid: &Grid| -> Result<(Voxelized, Volume<f32>, Thickness)> {
             let voxelized = voxelize::voxelize(mesh, goal_grid, &options.voxelize)
                 .map_err(|e| e.in_context(source))?;
-            if options.shell.is_none()
-                && !options.solid
-                && let Some(refusal) = voxelized.inside.ambiguity.refusal(source)
-            {
-                return Err(refusal);
-            }
+
             let sd = distance::signed_distance(&distance::inside(&voxelized.density));
             let thickness = Thickness::measure(&sd, mesh, &query, options.fit.seed);
             Ok((voxelized, sd, thickness))
         };
         let mut goal_grid = goal_grid(&grid);
+        if options.shell.is_none() && !options.solid {
+            let ambiguity =
+                voxelize::ambiguity_of(mesh, &goal_grid).map_err(|e| e.in_context(source))?;
+            if let Some(refusal) = ambiguity.refusal(source) {
+                return Err(refusal);
+            }
+        }
         let (mut voxelized, mut sd, mut thickness) = volumes(&goal_grid)?;
         let longest = |g: &Grid| g.dims.into_iter().max().unwrap_or(0);
         if goal_grid != grid
@@ -1245,6 +1247,13 @@ pub fn warnings(
     inside.ambiguity.warning().into_iter().chain(thin).collect()
 }
 
+/// What a fit's outcome warns of, one line each (no file name): a target not met
+/// ([`above_target`]), faces inside the mesh's own solid ([`interior_surface`]). The warnings
+/// known before the fit are [`Prepared::warnings`]; [`Fitted::warnings`] gives both.
+pub fn outcome_warnings(report: &FitReport) -> Vec<String> {
+    above_target(report).into_iter().chain(interior_surface(report)).collect()
+}
+
 /// A warning (one line, no file name) when a fit ended above its target: the E reached and the
 /// target, why it stopped, and where the mesh lies farthest from the model; for a fit of the
 /// paper's loop that stopped improving, that a grid from [`fit::LevelOptions::min_axis`] voxels adds
@@ -1304,8 +1313,7 @@ impl Fitted {
         let shell = self.report.shell_voxels.map(Shell::Voxels);
         let mut warnings =
             warnings(&self.inside, self.report.thickness.as_ref(), shell, self.report.dims);
-        warnings.extend(above_target(&self.report));
-        warnings.extend(interior_surface(&self.report));
+        warnings.extend(outcome_warnings(&self.report));
         warnings
     }
 

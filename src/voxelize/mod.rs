@@ -244,6 +244,30 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
     Ok(Voxelized { density: Volume { grid: *grid, data }, inside })
 }
 
+/// How much of `grid` has a winding number near one half for `mesh`, as [`voxelize`] measures
+/// it ([`Inside::ambiguity`]), without the densities: the mesh re-oriented and its winding
+/// number sampled on the same lattice, so that a fit can refuse an open mesh
+/// ([`Ambiguity::refusal`]) before it voxelizes it.
+///
+/// # Errors
+/// As [`voxelize`]'s.
+pub fn ambiguity_of(mesh: &Mesh, grid: &Grid) -> Result<Ambiguity> {
+    check(mesh, grid, &VoxelizeOptions::default())?;
+    let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
+    if vertices.iter().any(|p| !p.is_finite()) {
+        return Err(Error::invalid(
+            "voxelize",
+            "the mesh is too far from the grid for its voxel size",
+        ));
+    }
+    let oriented = orient::orient(&vertices, &mesh.triangles);
+    if oriented.closed {
+        return Ok(Ambiguity { sampled: 0, near_half: 0 });
+    }
+    let triangles = oriented.triangles.iter().map(|t| t.map(|i| vertices[i as usize])).collect();
+    Ok(ambiguity(&Winding::new(triangles), grid))
+}
+
 /// The winding number on a lattice of at most 16 voxels along each axis of `grid`.
 fn ambiguity(winding: &Winding, grid: &Grid) -> Ambiguity {
     let stride = grid.dims.iter().max().map_or(1, |&n| n.div_ceil(16).max(1));

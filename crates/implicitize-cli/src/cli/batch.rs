@@ -62,9 +62,6 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     batch::write_manifest(&args.output, &entries)?;
-    for line in batch::summary(&entries) {
-        progress.line(line);
-    }
     let failed = entries.iter().filter(|e| e.status == Status::Failed).count();
     let reused = entries.iter().filter(|e| e.reused).count();
     progress.line(format!(
@@ -74,6 +71,9 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
         entries.len(),
         args.output.join(batch::MANIFEST).display()
     ));
+    for line in batch::summary(&entries) {
+        progress.line(line);
+    }
     if failed > 0 {
         anyhow::bail!(
             "{failed} of {} meshes failed; see {}",

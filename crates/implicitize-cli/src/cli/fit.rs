@@ -174,8 +174,8 @@ pub struct FitCommand {
 }
 
 /// What the command line shows of a fit as it runs: the open-mesh warning, a line per
-/// iteration, and the pictures of `--snapshots` (a fit that ends above its target is warned
-/// about after it).
+/// iteration, and the pictures of `--snapshots` (what the fit's outcome warns of is printed
+/// after it: [`pipeline::outcome_warnings`]).
 struct Watch<'a> {
     progress: Progress,
     source: String,
@@ -297,9 +297,7 @@ fn fit_and_write(
         snapshots.finish()?;
     }
     progress.line(fitted.report.table(name));
-    let after =
-        [pipeline::above_target(&fitted.report), pipeline::interior_surface(&fitted.report)];
-    for warning in after.into_iter().flatten() {
+    for warning in pipeline::outcome_warnings(&fitted.report) {
         warn(&source, &warning);
     }
     Ok(fitted)
