@@ -215,16 +215,7 @@ impl Ambiguity {
 /// odd and in 1..=15.
 pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<Voxelized> {
     check(mesh, grid, options)?;
-    let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
-    if vertices.iter().any(|p| !p.is_finite()) {
-        return Err(Error::invalid(
-            "voxelize",
-            "the mesh is too far from the grid for its voxel size",
-        ));
-    }
-    let oriented = orient::orient(&vertices, &mesh.triangles);
-    let triangles: Vec<[DVec3; 3]> =
-        oriented.triangles.iter().map(|t| t.map(|i| vertices[i as usize])).collect();
+    let (oriented, triangles) = oriented_on(mesh, grid)?;
     let classifier = Classifier::new(&triangles, grid.dims, options.supersampling);
     let centre = classifier.centres(grid);
     let data = classifier.densities(grid, &centre);
@@ -253,6 +244,16 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
 /// As [`voxelize`]'s.
 pub fn ambiguity_of(mesh: &Mesh, grid: &Grid) -> Result<Ambiguity> {
     check(mesh, grid, &VoxelizeOptions::default())?;
+    let (oriented, triangles) = oriented_on(mesh, grid)?;
+    if oriented.closed {
+        return Ok(Ambiguity { sampled: 0, near_half: 0 });
+    }
+    Ok(ambiguity(&Winding::new(triangles), grid))
+}
+
+/// `mesh` moved into `grid`'s coordinates and re-oriented ([`orient::orient`]): how, and its
+/// triangles' corners.
+fn oriented_on(mesh: &Mesh, grid: &Grid) -> Result<(orient::Oriented, Vec<[DVec3; 3]>)> {
     let vertices: Vec<DVec3> = mesh.vertices.iter().map(|&p| grid.to_grid(p)).collect();
     if vertices.iter().any(|p| !p.is_finite()) {
         return Err(Error::invalid(
@@ -261,11 +262,8 @@ pub fn ambiguity_of(mesh: &Mesh, grid: &Grid) -> Result<Ambiguity> {
         ));
     }
     let oriented = orient::orient(&vertices, &mesh.triangles);
-    if oriented.closed {
-        return Ok(Ambiguity { sampled: 0, near_half: 0 });
-    }
     let triangles = oriented.triangles.iter().map(|t| t.map(|i| vertices[i as usize])).collect();
-    Ok(ambiguity(&Winding::new(triangles), grid))
+    Ok((oriented, triangles))
 }
 
 /// The winding number on a lattice of at most 16 voxels along each axis of `grid`.
