@@ -1260,9 +1260,12 @@ pub fn outcome_warnings(report: &FitReport) -> Vec<String> {
 /// detail levels where it stalls.
 pub fn above_target(report: &FitReport) -> Option<String> {
     let target = report.target.filter(|t| !t.met)?;
-    let stopped = match &report.levels {
-        Some(levels) => format!("its detail levels stopped: {}", levels.stopped),
-        None => format!("it stopped: {}", report.termination),
+    let (error, stopped) = match &report.levels {
+        Some(levels) => (
+            "the largest error at the goal's surface points",
+            format!("its detail levels stopped: {}", levels.stopped),
+        ),
+        None => ("E", format!("it stopped: {}", report.termination)),
     };
     let farthest = report.mesh_distance.map(|d| {
         let [x, y, z] = d.mesh_to_model.farthest;
@@ -1283,7 +1286,7 @@ pub fn above_target(report: &FitReport) -> Option<String> {
         )
     });
     Some(format!(
-        "the fit ended above its target: E {:.2} voxels for a target of {:.2}; {stopped}{}{}",
+        "the fit ended above its target: {error} {:.2} voxels for a target of {:.2}; {stopped}{}{}",
         target.reached_voxels,
         target.target_voxels,
         farthest.unwrap_or_default(),

@@ -4,7 +4,7 @@
 
 use std::sync::OnceLock;
 
-use implicitize::fit::{FitOptions, Termination};
+use implicitize::fit::{FitOptions, LevelsStop, Termination};
 use implicitize::levels::MultiScale;
 use implicitize::morph::{self, Morph, MorphOptions};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions};
@@ -89,6 +89,11 @@ fn levels_correct_a_coarse_level_0_below_the_target() {
     let (there, back) = distances(&fitted().model);
     assert!(there <= 2.0 && back <= 2.0, "with levels: {there} {back}; {report:?}");
     assert!(fitted().report.max_error_voxels <= 1.5, "E {}", fitted().report.max_error_voxels);
+    // The fit is judged as its levels judge themselves, and says nothing of a missed target.
+    let target = fitted().report.target.expect("a target outcome");
+    assert_eq!(report.stopped, LevelsStop::TargetMet, "{report:?}");
+    assert!(target.met && f64::from(target.reached_voxels) == last.max_error_voxels as f32 as f64);
+    assert!(pipeline::above_target(&fitted().report).is_none());
 }
 
 /// Above `max_goal_axis` the goal is voxelized at half the resolution, its voxels exactly two

@@ -347,9 +347,11 @@ pub struct TargetOutcome {
     pub measure: super::ErrorMeasure,
     /// The target E, voxels.
     pub target_voxels: f32,
-    /// The model's E by that measure, voxels.
+    /// The model's E by that measure, voxels; for a multi-scale fit, the largest error at the
+    /// goal's surface points after its last detail level (see [`FitReport::target_outcome`]).
     pub reached_voxels: f32,
-    /// Whether `reached_voxels` is within `target_voxels`.
+    /// Whether the target was met: `reached_voxels` within `target_voxels`, and for a
+    /// multi-scale fit every band voxel on the right side too.
     pub met: bool,
 }
 
@@ -366,15 +368,25 @@ impl FitReport {
         }
     }
 
-    /// The outcome of a fit to `target` voxels by `measure`.
+    /// The outcome of a fit to `target` voxels by `measure`. A multi-scale fit is judged as
+    /// its detail levels judge themselves: the largest error at the goal's surface points
+    /// after the last level, met when the levels stopped for meeting the target (which also
+    /// asks every band voxel on the right side); level 0's E is a step towards it.
     pub fn target_outcome(&self, measure: super::ErrorMeasure, target: f32) -> TargetOutcome {
-        let reached = self.error_by(measure);
-        TargetOutcome {
-            measure,
-            target_voxels: target,
-            reached_voxels: reached,
-            met: reached <= target,
-        }
+        let (reached, met) = match &self.levels {
+            Some(levels) => {
+                let at_points = levels
+                    .levels
+                    .last()
+                    .map_or(levels.base_max_error_voxels, |l| l.max_error_voxels);
+                (at_points as f32, levels.stopped == super::LevelsStop::TargetMet)
+            }
+            None => {
+                let reached = self.error_by(measure);
+                (reached, reached <= target)
+            }
+        };
+        TargetOutcome { measure, target_voxels: target, reached_voxels: reached, met }
     }
 }
 
