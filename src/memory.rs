@@ -431,6 +431,26 @@ fn kilobytes_field(text: &str, name: &str) -> Option<u64> {
     Some(kb.saturating_mul(1024))
 }
 
+/// Turns transparent huge pages off for this process (Linux; inherited by its children), as
+/// both front ends do at start (the command line's `main`, the Python module's import). With
+/// them, mimalloc, the front ends' allocator, asks for huge pages over its large regions, and
+/// every fresh 2 MiB the kernel hands in is zeroed whole, for allocations that touch a few pages
+/// of it: the kernel's zeroing took 10 to 19% of the CPU of a default fit and of `sample`
+/// (docs/results.md, "Huge pages"). A kernel that refuses the call leaves the default.
+pub fn refuse_huge_pages() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: PR_SET_THP_DISABLE reads only its integer arguments and touches no memory of ours.
+    unsafe {
+        libc::prctl(
+            libc::PR_SET_THP_DISABLE,
+            1 as libc::c_ulong,
+            0 as libc::c_ulong,
+            0 as libc::c_ulong,
+            0 as libc::c_ulong,
+        );
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -15,6 +15,15 @@ use pyo3::types::PyDict;
 
 mod batch;
 mod errors;
+
+// The same allocator and setup as the command line's, for the same reason (crates/
+// implicitize-cli's main.rs): a fit allocates and frees volumes of tens of megabytes every
+// iteration, which the system allocator hands back to the kernel and faults in again. It serves
+// the library's allocations only; Python's objects stay with Python's allocator. The module
+// turns transparent huge pages off for the process when it is imported
+// (`memory::refuse_huge_pages`), without which mimalloc was no faster here.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 mod inputs;
 mod model;
 mod sample;
@@ -23,6 +32,7 @@ mod volume;
 /// The module's functions and classes.
 #[pymodule]
 fn _implicitize(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    implicitize::memory::refuse_huge_pages();
     m.add_class::<model::PyModel>()?;
     m.add_function(wrap_pyfunction!(volume::volume, m)?)?;
     m.add_function(wrap_pyfunction!(sample::distance, m)?)?;

@@ -11,8 +11,8 @@
 //! the peer comparison and the model's users need; f64 keeps it near `1e-15` of that sum, and
 //! [`values`], [`value_at`] and [`gradient_at`] are f64 throughout. The fit's volume passes need
 //! less: each voxel's sign and the surface's position to a small fraction of a voxel. For them
-//! [`values_f32`] runs the thin-plate sum in f32 where the instruction set has a loop for it
-//! (AVX-512, AVX2 with FMA), and the fit checks a model's f32 error before using it.
+//! [`values_f32`] runs the thin-plate sum in f32 (a loop of its own on every instruction set),
+//! and the fit checks a model's f32 error before using it.
 //!
 //! ## Guarantees
 //! * The direct sum ([`values_exact`]) is exact to the rounding of f64 (see the kernel loops'
@@ -152,8 +152,8 @@ fn in_chunks<const D: usize, T: Copy + Default>(
     out
 }
 
-/// [`values`] with the radial sum in f32 where that is faster: the thin-plate kernel where the
-/// instruction set has an f32 loop for it ([`ThinPlateF32`]), elsewhere the f64 loops. The
+/// [`values`] with the radial sum in f32 where that is faster: the thin-plate kernel by the f32
+/// loop of the instruction set ([`ThinPlateF32`]), the other kernels by the f64 loops. The
 /// error grows to about `1e-7 sum_j |d_j phi_j|` (see the module doc): for the fit's volume
 /// passes, which need only each voxel's sign and the surface's position to a small fraction of
 /// a voxel.
@@ -162,12 +162,16 @@ pub(super) fn values_f32(
     count: usize,
     point: impl Fn(usize, &mut [f64]) + Sync,
 ) -> Vec<f64> {
-    match ThinPlateF32::of(Isa::selected()) {
-        Some(f32_loop) if implicit.kernel == Kernel::ThinPlate => {
-            let work = ValuesF32 { f32_loop, implicit, count, point: &point };
-            kernel::specialize(implicit.dim, implicit.kernel, work)
-        }
-        _ => values(implicit, count, point),
+    if implicit.kernel == Kernel::ThinPlate {
+        let work = ValuesF32 {
+            f32_loop: ThinPlateF32::of(Isa::selected()),
+            implicit,
+            count,
+            point: &point,
+        };
+        kernel::specialize(implicit.dim, implicit.kernel, work)
+    } else {
+        values(implicit, count, point)
     }
 }
 

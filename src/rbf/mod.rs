@@ -59,7 +59,7 @@
 //!
 //! The fit's volume passes need each voxel's sign and the surface's position to a small
 //! fraction of a voxel, no more: through [`SinglePrecision`] they sum the thin-plate kernel in
-//! f32 where the CPU has a loop for it (AVX-512, AVX2 with FMA), and the fit measures a model's
+//! f32 (a loop on every instruction set, see `kernel/`), and the fit measures a model's
 //! f32 error at its boundary constraints first, keeping f64 where f32 would misplace the surface
 //! by more than a share of its target error.
 //!
@@ -385,7 +385,7 @@ impl Implicit {
 }
 
 /// An implicit function whose bulk evaluation ([`Field::values`]) runs its radial sum in f32
-/// where the CPU has a loop for it (the thin-plate kernel on AVX-512, and on AVX2 with FMA):
+/// for the thin-plate kernel (a loop on every instruction set; the other kernels stay f64):
 /// an error near `1e-7` of `sum_j |d_j phi_j|` instead of `1e-15`, which misplaces the surface
 /// by more the more the weights cancel, so a caller measures it before relying on it (as the
 /// fit does). For passes that need signs and the surface's position to a small fraction of a

@@ -203,9 +203,9 @@ fn fit_with_isa(dir: &Path, isa: Option<&str>) -> serde_json::Value {
 
 /// The portable loops (`IMPLICITIZE_ISA=baseline`) fit the triceratops as well as the loops
 /// this CPU runs best do: E at most 2 voxels both, with constraint counts within 5% of each
-/// other. Not the same model: on AVX2 and AVX-512 the fit's volume passes run in f32 (the
-/// baseline in f64), within a hundredth of a voxel of each other (`tests/fit.rs`), which is
-/// enough to tip the choice of a candidate here and there.
+/// other. Not the same model: each level's f32 loop of the volume passes has its own logarithm
+/// and rounding, within a hundredth of a voxel of each other (`tests/fit.rs`), which is enough
+/// to tip the choice of a candidate here and there.
 #[test]
 fn the_baseline_loops_fit_the_triceratops_as_well_as_the_default_ones() {
     let dir = tempfile::tempdir().unwrap();

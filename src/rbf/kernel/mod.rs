@@ -14,8 +14,9 @@
 //!   for AVX2 with FMA and for the target's baseline.
 //! * On AVX-512, `r^2 log r` has an f64 loop of its own written with intrinsics ([`avx512`]):
 //!   a table-driven logarithm without a division, a third fewer vector operations per pair.
-//! * `r^2 log r` has f32 loops on AVX-512 ([`avx512`], 16 lanes a vector) and on AVX2 with FMA
-//!   ([`avx2`], 8 lanes a vector), for the fit's volume passes
+//! * `r^2 log r` has f32 loops on AVX-512 ([`avx512`], 16 lanes a vector), on AVX2 with FMA
+//!   ([`avx2`], 8 lanes a vector) and in plain Rust for the target's baseline ([`portable`]:
+//!   SSE2's 4 lanes on x86-64, NEON's on aarch64), for the fit's volume passes
 //!   ([`SinglePrecision`](crate::rbf::SinglePrecision)).
 //!
 //! [`sum`] and [`ThinPlateF32`] choose the loop of an instruction set ([`Isa`]), which only
@@ -212,21 +213,19 @@ pub(super) fn sum<const D: usize, K: Phi>(
     }
 }
 
-/// The f32 loop of `r^2 log r` of an instruction set that has one (AVX-512, AVX2 with FMA):
-/// an error near `1e-7` of `sum_j |d_j phi_j|` instead of f64's `1e-15`.
+/// The f32 loop of `r^2 log r` of an instruction set: written with intrinsics for AVX-512 and
+/// for AVX2 with FMA, in plain Rust that the compiler vectorizes for the target's baseline
+/// (SSE2 on x86-64, NEON on aarch64). An error near `1e-7` of `sum_j |d_j phi_j|` instead of
+/// f64's `1e-15`.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct ThinPlateF32 {
     isa: Isa,
 }
 
 impl ThinPlateF32 {
-    /// The f32 loop of `isa`, if its level has one.
-    pub(super) fn of(isa: Isa) -> Option<ThinPlateF32> {
-        match isa.level() {
-            #[cfg(target_arch = "x86_64")]
-            IsaLevel::Avx512 | IsaLevel::Avx2 => Some(ThinPlateF32 { isa }),
-            _ => None,
-        }
+    /// The f32 loop of `isa`.
+    pub(super) fn of(isa: Isa) -> ThinPlateF32 {
+        ThinPlateF32 { isa }
     }
 
     /// The points per block of the loop.
@@ -236,7 +235,7 @@ impl ThinPlateF32 {
             IsaLevel::Avx512 => avx512::LANES_F32,
             #[cfg(target_arch = "x86_64")]
             IsaLevel::Avx2 => avx2::LANES_F32,
-            _ => unreachable!("`ThinPlateF32::of` makes none for this level"),
+            _ => portable::LANES_F32,
         }
     }
 
@@ -256,7 +255,7 @@ impl ThinPlateF32 {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above, for AVX2 and FMA.
             IsaLevel::Avx2 => unsafe { avx2::run_f32::<D>(centres, weights, points, out) },
-            _ => unreachable!("`ThinPlateF32::of` makes none for this level"),
+            _ => portable::run_f32_baseline::<D>(centres, weights, points, out),
         }
     }
 }
@@ -490,12 +489,10 @@ mod tests {
                     let error = worst(&got, &inputs.scalar(kernel));
                     assert!(error <= F64_TOLERANCE, "{isa:?} f64 {kernel} {dim}D: {error:e}");
                 }
-                if let Some(f32_loop) = ThinPlateF32::of(isa) {
-                    let work = F32Loop { f32_loop, inputs: &rounded };
-                    let got = specialize(dim, Kernel::ThinPlate, work);
-                    let error = worst(&got, &rounded.scalar(Kernel::ThinPlate));
-                    assert!(error <= F32_TOLERANCE, "{isa:?} f32 {dim}D: {error:e}");
-                }
+                let work = F32Loop { f32_loop: ThinPlateF32::of(isa), inputs: &rounded };
+                let got = specialize(dim, Kernel::ThinPlate, work);
+                let error = worst(&got, &rounded.scalar(Kernel::ThinPlate));
+                assert!(error <= F32_TOLERANCE, "{isa:?} f32 {dim}D: {error:e}");
             }
         }
     }

@@ -1,6 +1,8 @@
 //! The f64 block loop in plain Rust, which the compiler vectorizes: every kernel, on every
 //! instruction set (compiled three times, for AVX-512, for AVX2 with FMA and for the target's
-//! baseline), and the logarithm it uses for `r^2 log r`.
+//! baseline), and the logarithm it uses for `r^2 log r`; and the f32 thin-plate loop of the
+//! target's baseline (SSE2 on x86-64, NEON on aarch64), for the fit's volume passes where the
+//! CPU has no AVX2 (see [`super::ThinPlateF32`]).
 //!
 //! * Points go in blocks of [`LANES`]; for each centre the block's distances and kernel values
 //!   are computed lane by lane in straight-line f64 code that the compiler turns into vector
@@ -11,6 +13,9 @@
 //!   table lookups so that it vectorizes: within 3 ulps of std's `f64::ln` (a test holds it).
 
 use super::{Centres, LANES, Phi};
+
+/// Points per block of the f32 loop.
+pub(super) const LANES_F32: usize = 16;
 
 /// Multiply-add: fused where the CPU has FMA, separate otherwise (a libm call per operation
 /// would be slower than both).
@@ -158,6 +163,74 @@ pub(super) fn run_baseline<const D: usize, K: Phi>(
     run::<D, K, Separate>(c, points, out)
 }
 
+/// Natural logarithm of a positive normal `x` in f32, by the reduction of [`ln`]
+/// (`x = 2^k m`, `m` in `[sqrt(2)/2, sqrt(2))`, `s = (m - 1) / (m + 1)`) and
+/// `ln m = 2 atanh s = 2 s (1 + s^2/3 + s^4/5 + s^6/7 + s^8/9)`, whose next term is below
+/// `1e-10` of the sum (`|s| < 0.172`), far below f32's rounding. Branch-free, with one division,
+/// so that it vectorizes on any instruction set.
+#[inline(always)]
+fn ln_f32(x: f32) -> f32 {
+    // The bits of sqrt(2)/2 in f32: adding the difference to 1.0's puts the split at sqrt(2).
+    const SPLIT: u32 = 0x3f35_04f3;
+    let u = x.to_bits().wrapping_add(0x3f80_0000 - SPLIT);
+    let k = ((u >> 23) as i32 - 127) as f32;
+    let m = f32::from_bits((u & 0x007f_ffff) + SPLIT);
+    let f = m - 1.0;
+    let s = f / (2.0 + f);
+    let z = s * s;
+    let q = 1.0 + z * (1.0 / 3.0 + z * (1.0 / 5.0 + z * (1.0 / 7.0 + z * (1.0 / 9.0))));
+    2.0 * s * q + k * std::f32::consts::LN_2
+}
+
+/// The thin-plate sum `sum_j (d_j / 2) r_j^2 ln r_j^2` in f32 for one block of points given per
+/// axis; below the smallest normal (0 included) `r^2` counts as the smallest normal in the
+/// logarithm, so `0 ln 0` is 0.
+#[inline(always)]
+fn block_f32<const D: usize>(
+    centres: &[f32],
+    weights: &[f32],
+    x: &[[f32; LANES_F32]; D],
+) -> [f32; LANES_F32] {
+    let n = weights.len();
+    let axes: [&[f32]; D] = std::array::from_fn(|a| &centres[a * n..(a + 1) * n]);
+    let mut acc = [0.0; LANES_F32];
+    for (j, &weight) in weights.iter().enumerate() {
+        let mut r2 = [0.0f32; LANES_F32];
+        for a in 0..D {
+            let ca = axes[a][j];
+            for l in 0..LANES_F32 {
+                let t = x[a][l] - ca;
+                r2[l] += t * t;
+            }
+        }
+        let d = 0.5 * weight;
+        for l in 0..LANES_F32 {
+            let clamped = if r2[l] < f32::MIN_POSITIVE { f32::MIN_POSITIVE } else { r2[l] };
+            acc[l] += d * r2[l] * ln_f32(clamped);
+        }
+    }
+    acc
+}
+
+/// The f32 thin-plate sums at `points` (per axis, whole blocks of [`LANES_F32`]) of the
+/// centres `centres` (f32, one axis after another) with weights `weights`, written to `out`,
+/// compiled for the target's baseline.
+pub(super) fn run_f32_baseline<const D: usize>(
+    centres: &[f32],
+    weights: &[f32],
+    points: &[Vec<f32>; D],
+    out: &mut [f64],
+) {
+    for (b, o) in out.chunks_mut(LANES_F32).enumerate() {
+        let x: [[f32; LANES_F32]; D] = std::array::from_fn(|a| {
+            points[a][b * LANES_F32..(b + 1) * LANES_F32].try_into().expect("whole blocks")
+        });
+        for (o, v) in o.iter_mut().zip(block_f32::<D>(centres, weights, &x)) {
+            *o = f64::from(v);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -198,5 +271,30 @@ mod tests {
         }
         assert!(worst <= LN_MAX_ULPS, "{worst} ulps");
         assert_eq!(ln::<Separate>(1.0), 0.0);
+    }
+
+    /// The f32 logarithm is within a few f32 ulps of `max(1, |ln x|)` (an absolute error, as
+    /// the sum needs) over every binade of normal f32 numbers, both sides of the split, and near
+    /// 1.
+    #[test]
+    fn the_f32_ln_is_within_a_few_f32_ulps_of_max_one_and_ln_x() {
+        let mut xs = vec![f32::MIN_POSITIVE, 1.0, 2.0, 0.5, f32::MAX];
+        let split = std::f32::consts::SQRT_2;
+        let mut x = f32::MIN_POSITIVE;
+        while x < 1e37 {
+            xs.extend([x, x * 1.1, x * split * (1.0 - 1e-6), x * split * (1.0 + 1e-6), x * 1.99]);
+            x *= 3.7;
+        }
+        for i in 1..20_000 {
+            let t = i as f32 / 20_000.0;
+            xs.extend([1.0 + 0.45 * t, 1.0 - 0.3 * t, 1.0 + t * 1e-3]);
+        }
+        for x in xs {
+            let want = f64::from(x).ln();
+            let tol = 4.0 * f64::from(f32::EPSILON) * want.abs().max(1.0);
+            let got = f64::from(ln_f32(x));
+            assert!((got - want).abs() <= tol, "ln({x:e}) = {got}, want {want}");
+        }
+        assert_eq!(ln_f32(1.0), 0.0);
     }
 }
