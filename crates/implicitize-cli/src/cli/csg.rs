@@ -39,7 +39,7 @@ pub struct CsgArgs {
     pub a: PathBuf,
     /// The second model file.
     pub b: PathBuf,
-    /// The composite model to write (JSON); `eval`, `mesh` and `render` read it like any model.
+    /// The composite model to write (the binary format, or JSON for a name ending in .json); `eval`, `mesh` and `render` read it like any model.
     #[arg(short, long)]
     pub output: PathBuf,
     /// A smooth fillet of about this radius in mesh units where the surfaces meet (0: sharp).

@@ -10,7 +10,7 @@ use implicitize::{DVec3, Field, Model, npy, rbf};
 /// Arguments of `eval`.
 #[derive(Debug, Args)]
 pub struct EvalArgs {
-    /// The model file (JSON), as written by `solve` or `fit`.
+    /// The model file (binary or JSON), as written by `solve` or `fit`.
     pub model: PathBuf,
     /// The points: a .npy array of N x 3 (N x 2 for a 2D model) float32 or float64 values, or a
     /// CSV file with a header line `x,y,z` (or `x,y`).

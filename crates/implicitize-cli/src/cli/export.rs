@@ -21,7 +21,7 @@ pub enum Format {
 /// Arguments of `implicitize export`.
 #[derive(Debug, Args)]
 pub struct ExportArgs {
-    /// The model file (JSON, from `fit`, `solve` or `csg`); it must be 3D.
+    /// The model file (binary or JSON, from `fit`, `solve` or `csg`); it must be 3D.
     pub model: PathBuf,
     /// The shading language.
     #[arg(long, value_enum)]

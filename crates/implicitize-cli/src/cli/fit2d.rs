@@ -21,7 +21,7 @@ pub struct Fit2dCommand {
     /// The goal image (PNG; grey, RGB, RGBA or palette, 8 or 16 bits). Pixel (x, y) is the point
     /// (x, height - 1 - y) of the model, in pixels.
     pub image: PathBuf,
-    /// The model file to write (JSON).
+    /// The model file to write: the binary format, or JSON for a name ending in .json.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Also write the fit report (JSON: the paper's Table 1 and 2 columns, in pixels).

@@ -25,9 +25,9 @@ pub enum MethodArg {
 /// Arguments of `implicitize morph`.
 #[derive(Debug, Args)]
 pub struct MorphArgs {
-    /// The model at the start (JSON).
+    /// The model at the start (binary or JSON).
     pub a: PathBuf,
-    /// The model at the end (JSON).
+    /// The model at the end (binary or JSON).
     pub b: PathBuf,
     /// The number of frames, the two ends included (at least 2).
     #[arg(long)]

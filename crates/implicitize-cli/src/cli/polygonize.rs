@@ -12,7 +12,7 @@ use super::common::{Progress, check_outputs, memory_limit};
 /// Arguments of `implicitize mesh`.
 #[derive(Debug, Args)]
 pub struct MeshCommand {
-    /// The model file (JSON, from `fit`, `solve` or `csg`).
+    /// The model file (binary or JSON, from `fit`, `solve` or `csg`).
     pub model: PathBuf,
     /// The mesh to write: .obj, .ply (binary) or .stl (binary).
     #[arg(short, long)]

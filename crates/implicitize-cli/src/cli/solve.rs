@@ -16,7 +16,7 @@ pub struct SolveArgs {
     /// in 4D), then one constraint a line; values 0 on the surface, positive inside, negative
     /// outside.
     pub constraints: PathBuf,
-    /// The model file to write (JSON).
+    /// The model file to write: the binary format, or JSON for a name ending in .json.
     #[arg(short, long)]
     pub output: PathBuf,
     /// The radial basis function: r2logr (r^2 log r, the paper's), r3 or r.

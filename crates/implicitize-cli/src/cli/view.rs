@@ -44,7 +44,7 @@ pub const MAX_MESH_TRIANGLES: usize = 2_000_000;
 /// Arguments of `implicitize view`.
 #[derive(Debug, Args)]
 pub struct ViewArgs {
-    /// The model file (JSON, from `fit`, `solve` or `csg`); it must be 3D.
+    /// The model file (binary or JSON, from `fit`, `solve` or `csg`); it must be 3D.
     pub model: PathBuf,
     /// The page to write (HTML); open it in a browser with WebGL2.
     #[arg(short, long)]
