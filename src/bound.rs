@@ -16,7 +16,7 @@
 //!
 //! A detail level ([`crate::levels`]) adds the range of each of its terms whose support meets the
 //! box: Wendland's function falls from 1 to 0 over its support, so a term lies between its
-//! values at the farthest and the nearest distance. A CSG composite ([`crate::csg`]) combines
+//! values at the farthest and the nearest distance. A CSG composite ([`crate::shape::csg`]) combines
 //! its children's intervals, each divided by its distance scale, through its operation: the
 //! smooth minimum of radius `k` is nondecreasing in both arguments and lies between
 //! `min(a, b) - k/4` and `min(a, b)`.
@@ -28,12 +28,12 @@
 
 use rayon::prelude::*;
 
-use crate::csg::{Composite, Operation};
 use crate::geometry::{Aabb, DVec3};
 use crate::levels::MultiScale;
 use crate::rbf::{DetailLevel, Implicit, Kernel, wendland};
 use crate::render::LatticeGeometry;
 use crate::shape::Shape;
+use crate::shape::csg::{Composite, Operation};
 
 /// The values a function can take: `lo <= f <= hi`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -350,11 +350,11 @@ mod tests {
         let moved = ball(Kernel::Cubic);
         for operation in [Operation::Union, Operation::Intersection, Operation::Difference] {
             let children = vec![
-                crate::csg::Child::new(
+                crate::shape::csg::Child::new(
                     Shape::Rbf(base.clone()),
                     Aabb { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
                 ),
-                crate::csg::Child::new(
+                crate::shape::csg::Child::new(
                     Shape::Rbf(moved.clone()),
                     Aabb { min: DVec3::splat(-1.0), max: DVec3::splat(1.0) },
                 ),

@@ -89,7 +89,7 @@
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //! | GLSL and WGSL source of a model, for GPUs and the viewer | [`shader`] | |
 //! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
-//! | combine models: union, intersection, difference | [`csg`] | 1 |
+//! | combine models: union, intersection, difference | [`csg`] (a kind of [`shape`]) | 1 |
 //! | morph one model into another | [`morph`] | 1, 7 |
 //! | convert many meshes, resumably, with a manifest | [`batch`] | |
 //! | write output files atomically | [`output`] | |
@@ -98,7 +98,6 @@
 
 pub mod batch;
 pub mod bound;
-pub mod csg;
 pub mod distance;
 pub mod error;
 pub mod field;
@@ -134,3 +133,4 @@ pub use model::{Model, ModelFormat};
 pub use pipeline::{Fitted, MeshFitOptions, fit_file, fit_mesh};
 pub use polygonize::{polygonize, polygonize_field};
 pub use rbf::{Constraint, ConstraintKind, Implicit, Kernel};
+pub use shape::csg;

@@ -42,6 +42,14 @@ const FIT_PER_VOXEL: u64 = 28;
 /// densities (freed after level 0) with its distance transform hold as much at the start
 /// (measured: 13.2 on the bunny at 512 beside its points, 9.8 while making the goal at 1024).
 const LEVELS_PER_VOXEL: u64 = 14;
+
+/// Bytes per goal surface point a fit with detail levels holds beyond the fit's grids: a point
+/// on the mesh (kept by the goal) and its copy, the point, its residual and error and their
+/// copies as candidates, at worst a centre of the finest level with its sparse row (about
+/// pi / spacing^2 neighbours of 12 bytes), its support index entries (about 84 of 4 bytes) and
+/// solve vectors, and the band voxels beside it (index and value, 8 bytes each, at most 2 x 16
+/// of them, a band being at most `first_radius` voxels of level 0 wide).
+const LEVELS_PER_POINT: u64 = 1050;
 /// Bytes per matrix entry of a dense solve: the system's matrix and its factorization.
 const DENSE_PER_ENTRY: u64 = 16;
 /// Bytes per constraint of an iterative solve: the overlapping local blocks' factorizations
@@ -191,7 +199,7 @@ impl Estimate {
     /// A fit with detail levels of a mesh of `triangles` triangles on a grid of `dims` voxels,
     /// its goal on a grid of `goal_dims` (`dims`, or a coarser grid: see
     /// [`crate::fit::levels::goal_grid`]), at `points` surface points
-    /// ([`crate::fit::levels::BYTES_PER_POINT`] a point): level 0's iterations, on a grid of a
+    /// (`LEVELS_PER_POINT` a point): level 0's iterations, on a grid of a
     /// quarter of the goal's resolution or less, fit in what the goal's measure holds. The
     /// model's surface, polygonized on `dims` once the goal is freed, is
     /// [`Estimate::measured_surface`].
@@ -202,7 +210,7 @@ impl Estimate {
         points: usize,
     ) -> Estimate {
         let goal = Estimate::grid(goal_dims, LEVELS_PER_VOXEL, triangles);
-        let points = (points as u64).saturating_mul(crate::fit::levels::BYTES_PER_POINT);
+        let points = (points as u64).saturating_mul(LEVELS_PER_POINT);
         Estimate { bytes: goal.bytes.saturating_add(points), what: Estimate::grid(dims, 0, 0).what }
     }
 

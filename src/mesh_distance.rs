@@ -62,10 +62,10 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, DVec3, MORTON_BITS, morton_key};
 use crate::mesh::Mesh;
-use crate::voxelize::Votes;
-use crate::voxelize::orient::{centre, orient_about};
-use crate::voxelize::rays::{Projected, Tally, plane_axes};
-use crate::voxelize::winding::Winding;
+use crate::mesh::inside::Votes;
+use crate::mesh::inside::orient::{centre, orient_about};
+use crate::mesh::inside::rays::{Projected, Tally, plane_axes};
+use crate::mesh::inside::winding::Winding;
 use glam::Vec3;
 
 pub mod grid;
@@ -1151,12 +1151,12 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    use crate::sample::Surface;
+    use crate::mesh::area::ByArea;
 
     /// Points within a few `sigma` of the surface of `mesh`: a point of the surface moved by
     /// up to `sigma` along each axis.
     fn near_surface(mesh: &Mesh, sigma: f64, n: usize) -> Vec<DVec3> {
-        let surface = Surface::of(mesh).unwrap();
+        let surface = ByArea::of(mesh).unwrap();
         let mut rng = ChaCha8Rng::seed_from_u64(7);
         (0..n)
             .map(|_| {

@@ -50,6 +50,7 @@ use crate::mesh::{self, Mesh};
 use crate::mesh_distance::{self, MeshDistance, Nearest};
 use crate::model::{Model, ModelFormat};
 use crate::rbf::{Implicit, Isa};
+pub use crate::sample::SampleOptions;
 use crate::sample::Samples;
 use crate::shape::Shape;
 use crate::surface_distance;
@@ -228,67 +229,6 @@ pub struct Distances {
     pub values: Vec<f64>,
     /// Each point's closest point of the surface, its triangle and barycentric coordinates.
     pub nearest: Vec<Nearest>,
-}
-
-/// What sampling a mesh's signed distance ([`sample()`]) needs besides the mesh and the number
-/// of points (see [`crate::sample`] for how the points are drawn).
-#[derive(Debug, Clone, PartialEq)]
-#[non_exhaustive]
-pub struct SampleOptions {
-    /// The standard deviations of the Gaussian noise that moves surface points off the surface,
-    /// as fractions of the diagonal of the mesh's bounding box; the near points are split
-    /// evenly among them (default 0.005 and 0.0005). Empty: every point uniform.
-    pub near_surface: Vec<f64>,
-    /// The fraction of the points uniform in the mesh's box padded by 10% of its size, in
-    /// [0, 1] (default 0.2).
-    pub uniform: f64,
-    /// The seed of the random choices (default: the fit's, 1).
-    pub seed: u64,
-    /// The memory the job may use.
-    pub memory_limit: MemoryLimit,
-}
-
-impl Default for SampleOptions {
-    fn default() -> Self {
-        SampleOptions {
-            near_surface: vec![0.005, 0.0005],
-            uniform: 0.2,
-            seed: FitOptions::default().seed,
-            memory_limit: MemoryLimit::default(),
-        }
-    }
-}
-
-impl SampleOptions {
-    /// Checks every setting: the standard deviations finite and positive, the uniform fraction
-    /// in [0, 1], and some near points' standard deviation unless every point is uniform.
-    ///
-    /// # Errors
-    /// The first setting out of its range, named.
-    pub fn check(&self) -> Result<()> {
-        if let Some(sigma) = self.near_surface.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
-            return Err(Error::invalid(
-                "options",
-                format!(
-                    "`near_surface` standard deviations must be finite and above 0, not {sigma}"
-                ),
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.uniform) {
-            return Err(Error::invalid(
-                "options",
-                format!("`uniform` must be a fraction in [0, 1], not {}", self.uniform),
-            ));
-        }
-        if self.near_surface.is_empty() && self.uniform < 1.0 {
-            return Err(Error::invalid(
-                "options",
-                "`near_surface` names no standard deviation for the points near the surface \
-                 (give one, or make `uniform` 1)",
-            ));
-        }
-        Ok(())
-    }
 }
 
 /// What polygonizing a field ([`polygonize`]) needs besides the field.

@@ -27,27 +27,87 @@
 //! DeepSDF's own preprocessing draws 47 of every 50 points near the surface of a mesh scaled
 //! into the unit sphere, with noise whose *variances* are 0.005 and 0.0005 (standard deviations
 //! 0.071 and 0.022 of the unit sphere's radius); here the defaults of
-//! [`crate::pipeline::SampleOptions`] are standard deviations, as fractions of the box's
+//! [`SampleOptions`] are standard deviations, as fractions of the box's
 //! diagonal, and a fifth of the points uniform.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::weighted::WeightedAliasIndex;
-use rand_distr::{Distribution, StandardNormal};
+use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, DVec3};
+use crate::memory::MemoryLimit;
 use crate::mesh::Mesh;
+use crate::mesh::area::ByArea;
 use crate::mesh_distance::MeshDistance;
-use crate::pipeline::SampleOptions;
+
+/// What sampling a mesh's signed distance ([`crate::pipeline::sample`]) needs besides the mesh and the number
+/// of points (see the [module doc](self) for how the points are drawn).
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct SampleOptions {
+    /// The standard deviations of the Gaussian noise that moves surface points off the surface,
+    /// as fractions of the diagonal of the mesh's bounding box; the near points are split
+    /// evenly among them (default 0.005 and 0.0005). Empty: every point uniform.
+    pub near_surface: Vec<f64>,
+    /// The fraction of the points uniform in the mesh's box padded by 10% of its size, in
+    /// [0, 1] (default 0.2).
+    pub uniform: f64,
+    /// The seed of the random choices (default: the fit's, 1).
+    pub seed: u64,
+    /// The memory the job may use.
+    pub memory_limit: MemoryLimit,
+}
+
+impl Default for SampleOptions {
+    fn default() -> Self {
+        SampleOptions {
+            near_surface: vec![0.005, 0.0005],
+            uniform: 0.2,
+            seed: 1,
+            memory_limit: MemoryLimit::default(),
+        }
+    }
+}
+
+impl SampleOptions {
+    /// Checks every setting: the standard deviations finite and positive, the uniform fraction
+    /// in [0, 1], and some near points' standard deviation unless every point is uniform.
+    ///
+    /// # Errors
+    /// The first setting out of its range, named.
+    pub fn check(&self) -> Result<()> {
+        if let Some(sigma) = self.near_surface.iter().find(|s| !(s.is_finite() && **s > 0.0)) {
+            return Err(Error::invalid(
+                "options",
+                format!(
+                    "`near_surface` standard deviations must be finite and above 0, not {sigma}"
+                ),
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.uniform) {
+            return Err(Error::invalid(
+                "options",
+                format!("`uniform` must be a fraction in [0, 1], not {}", self.uniform),
+            ));
+        }
+        if self.near_surface.is_empty() && self.uniform < 1.0 {
+            return Err(Error::invalid(
+                "options",
+                "`near_surface` names no standard deviation for the points near the surface \
+                 (give one, or make `uniform` 1)",
+            ));
+        }
+        Ok(())
+    }
+}
 
 /// The uniform points' box: the mesh's box grown on every side by this fraction of its size
 /// along each axis.
 pub const PADDING: f64 = 0.1;
 
-/// Points drawn from one random stream.
-pub const BLOCK: usize = 1 << 14;
+pub use crate::mesh::area::BLOCK;
 
 /// Points around a mesh and its signed distance at each.
 #[derive(Debug, Clone, PartialEq)]
@@ -98,7 +158,7 @@ pub(crate) fn sample(
     let bounds =
         mesh.bounds().ok_or_else(|| Error::invalid(source, "the mesh has no triangles"))?;
     let (near, uniform) = counts(n, options);
-    let surface = Surface::new(mesh, near.iter().sum(), source)?;
+    let surface = surface_to_draw_near(mesh, near.iter().sum(), source)?;
     let diagonal = (bounds.max - bounds.min).length();
     // Each point's kind: the standard deviation of its noise, or `None` for uniform.
     let kinds: Vec<Option<f64>> = near
@@ -117,7 +177,10 @@ pub(crate) fn sample(
             kinds
                 .iter()
                 .map(|kind| match kind {
-                    Some(sigma) => surface.point(&mut rng) + gaussian(&mut rng) * *sigma,
+                    Some(sigma) => {
+                        let surface = surface.as_ref().expect("near points have a surface");
+                        surface.point(&mut rng) + gaussian(&mut rng) * *sigma
+                    }
                     None => uniform_in(&room, &mut rng),
                 })
                 .collect::<Vec<_>>()
@@ -127,55 +190,19 @@ pub(crate) fn sample(
     Ok(Samples { points, sdf, near, uniform })
 }
 
-/// A surface to draw points on, uniformly by area: the triangles' corners and an alias table
-/// of their areas (Walker's method, [`WeightedAliasIndex`]), which draws a triangle in
-/// constant time.
-pub(crate) struct Surface {
-    corners: Vec<[DVec3; 3]>,
-    triangles: Option<WeightedAliasIndex<f64>>,
-}
-
-impl Surface {
-    /// The surface of `mesh`, from which `near` points will be drawn (none: no surface is
-    /// needed, and a mesh without area is fine); `source` names the mesh in the error.
-    fn new(mesh: &Mesh, near: usize, source: &str) -> Result<Surface> {
-        if near == 0 {
-            return Ok(Surface { corners: Vec::new(), triangles: None });
-        }
-        Surface::of(mesh).ok_or_else(|| {
-            Error::invalid(
-                source,
-                "the triangles have no area to draw points near the surface from",
-            )
-        })
+/// The surface of `mesh` by area, to draw `near` points near it from (none: no surface is
+/// needed, and a mesh without area is fine).
+///
+/// # Errors
+/// Near points asked of a mesh whose triangles have no area; `source` names it.
+fn surface_to_draw_near(mesh: &Mesh, near: usize, source: &str) -> Result<Option<ByArea>> {
+    if near == 0 {
+        return Ok(None);
     }
-
-    /// The surface of `mesh`; `None` where its triangles have no area (or a corner's index is
-    /// out of range, or an area is not finite).
-    pub(crate) fn of(mesh: &Mesh) -> Option<Surface> {
-        let corner = |i: u32| mesh.vertices.get(i as usize).copied();
-        let corners: Vec<[DVec3; 3]> = mesh
-            .triangles
-            .par_iter()
-            .map(|&[a, b, c]| Some([corner(a)?, corner(b)?, corner(c)?]))
-            .collect::<Option<_>>()?;
-        let areas = corners.par_iter().map(|&[a, b, c]| (b - a).cross(c - a).length() / 2.0);
-        let triangles = WeightedAliasIndex::new(areas.collect()).ok()?;
-        Some(Surface { corners, triangles: Some(triangles) })
-    }
-
-    /// A point uniform on the surface: a triangle chosen by area, a point uniform on it.
-    pub(crate) fn point(&self, rng: &mut ChaCha8Rng) -> DVec3 {
-        let triangles = self.triangles.as_ref().expect("a surface with area has triangles");
-        uniform_on(&self.corners[triangles.sample(rng)], rng)
-    }
-}
-
-/// A point uniform on the triangle with corners `a`, `b`, `c`.
-pub(crate) fn uniform_on(&[a, b, c]: &[DVec3; 3], rng: &mut ChaCha8Rng) -> DVec3 {
-    let s = rng.random::<f64>().sqrt();
-    let v = rng.random::<f64>();
-    a * (1.0 - s) + b * (s * (1.0 - v)) + c * (s * v)
+    let surface = ByArea::of(mesh).ok_or_else(|| {
+        Error::invalid(source, "the triangles have no area to draw points near the surface from")
+    })?;
+    Ok(Some(surface))
 }
 
 /// A point uniform in `room`.

@@ -12,8 +12,8 @@
 //! with the crate's sign convention: **inside positive, outside negative**, so the gradient
 //! points inside. The model's numbers are constants in the source: for each variational
 //! implicit function, one array of `vec4` holding a centre (`xyz`) and its weight (`w`), the
-//! normalization and the linear polynomial. A CSG composite ([`crate::csg`]) becomes one
-//! function per node, combining its children exactly as [`crate::csg::Composite`] does (each
+//! normalization and the linear polynomial. A CSG composite ([`crate::shape::csg`]) becomes one
+//! function per node, combining its children exactly as [`crate::shape::csg::Composite`] does (each
 //! child divided by its distance scale, Quilez's smooth minimum of the blend radius), so the
 //! exported function is the model's. The GLSL has no `#version` line: it compiles as GLSL ES
 //! 3.00 (WebGL2) and desktop GLSL 3.30 and later.
@@ -49,12 +49,12 @@
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 
-use crate::csg::{Composite, Operation};
 use crate::error::{Error, Result};
 use crate::levels::MultiScale;
 use crate::model::Model;
 use crate::rbf::{DetailLevel, Implicit, Kernel, Normalization};
 use crate::shape::Shape;
+use crate::shape::csg::{Composite, Operation};
 
 /// The shading language of [`source`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -715,7 +715,7 @@ fn kernel_functions(kernel: &str, lang: Language) -> &'static str {
     }
 }
 
-/// The smooth minimum of [`crate::csg`] and the combination of two children's
+/// The smooth minimum of [`crate::shape::csg`] and the combination of two children's
 /// (gradient, value) by an operation: 0 union, 1 intersection, 2 difference.
 fn combine_functions(lang: Language) -> &'static str {
     match lang {

@@ -32,8 +32,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::Result;
 use crate::geometry::DVec3;
 use crate::mesh::Mesh;
+use crate::mesh::area::{BLOCK, ByArea, on_triangle};
 use crate::mesh_distance::MeshDistance;
-use crate::sample::{BLOCK, Surface, uniform_on};
 
 /// Points sampled on each surface.
 pub const SAMPLES: usize = 100_000;
@@ -205,7 +205,7 @@ fn spread_on(query: &MeshDistance, n: usize, seed: u64) -> Option<Vec<(DVec3, us
             let mut points = Vec::new();
             for (t, corners) in (chunk * SPREAD_CHUNK..).zip(corners) {
                 for _ in points_before(before[t])..points_before(before[t + 1]) {
-                    points.push((uniform_on(corners, &mut rng), t));
+                    points.push((on_triangle(corners, &mut rng), t));
                 }
             }
             points
@@ -214,11 +214,11 @@ fn spread_on(query: &MeshDistance, n: usize, seed: u64) -> Option<Vec<(DVec3, us
 }
 
 /// `n` points on `mesh`'s triangles, each on a triangle drawn with probability proportional to
-/// its area and uniform on it, in parallel blocks of [`crate::sample::BLOCK`] points, each
+/// its area and uniform on it, in parallel blocks of [`crate::mesh::area::BLOCK`] points, each
 /// drawn from its own stream of `seed`; `None` where the triangles have no area (or their
 /// indices are out of range, which the distance query refuses).
 pub fn sample(mesh: &Mesh, n: usize, seed: u64) -> Option<Vec<DVec3>> {
-    let surface = Surface::of(mesh)?;
+    let surface = ByArea::of(mesh)?;
     let blocks = n.div_ceil(BLOCK);
     let points = (0..blocks).into_par_iter().flat_map_iter(|block| {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);

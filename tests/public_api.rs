@@ -10,7 +10,6 @@ use std::path::{Path, PathBuf};
 const PUBLIC_MODULES: &[&str] = &[
     "batch",
     "bound",
-    "csg",
     "distance",
     "error",
     "field",
@@ -37,6 +36,7 @@ const PUBLIC_MODULES: &[&str] = &[
     "sample",
     "shader",
     "shape",
+    "shape::csg",
     "surface_distance",
     "voxelize",
     "voxelize::shell",

@@ -45,7 +45,10 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::report::{FitReport, GridLevel, IterationReport, Termination, Timings};
+use super::report::{
+    FitReport, GridLevel, IterationReport, LevelReport, LevelsReport, LevelsStop, Termination,
+    Timings,
+};
 use super::{FitOptions, Goal, Log, coarse, compact};
 use crate::error::Result;
 use crate::field::Field;
@@ -98,109 +101,6 @@ impl Default for LevelOptions {
     }
 }
 
-/// The figures of one detail level.
-#[derive(Debug, Clone, Serialize)]
-pub struct LevelReport {
-    /// The support radius, in voxels of the full grid.
-    pub radius_voxels: f64,
-    /// Its centres.
-    pub centres: usize,
-    /// What it adds to the binary model file, in bytes (0 until the model is finished: see
-    /// [`crate::pipeline::Fitted::finish`]).
-    pub bytes: usize,
-    /// Stored entries of its sparse matrix.
-    pub matrix_entries: usize,
-    /// Conjugate gradient iterations of its solve.
-    pub solve_iterations: usize,
-    /// The largest interpolation residual at its centres, relative to the largest value.
-    pub solve_residual: f64,
-    /// The largest error at the goal's surface points with this level, in voxels.
-    pub max_error_voxels: f64,
-    /// The 99.9th percentile of those errors, in voxels.
-    pub p999_error_voxels: f64,
-    /// Voxels of the band where the levels below gave the wrong side, which this level fitted
-    /// to the goal's signed distance.
-    pub wrong_side_voxels: usize,
-    /// Seconds spent on this level.
-    pub seconds: f64,
-}
-
-/// The figures of a multi-scale fit, beside the report of its level 0.
-#[derive(Debug, Clone, Serialize)]
-pub struct LevelsReport {
-    /// Level 0's grid.
-    pub base_dims: [usize; 3],
-    /// Level 0's centres.
-    pub base_centres: usize,
-    /// The binary model file's size with level 0 alone, in bytes (0 until the model is
-    /// finished).
-    pub base_bytes: usize,
-    /// The largest error at the goal's surface points with level 0 alone, in voxels of the
-    /// full grid.
-    pub base_max_error_voxels: f64,
-    /// The 99.9th percentile of those errors.
-    pub base_p999_error_voxels: f64,
-    /// The goal's surface points the levels were fitted at.
-    pub points: usize,
-    /// The band, in voxels of the full grid, of the goal's signed distance in which the side
-    /// of the model is checked: level 0's sub-voxel E plus 2 voxels.
-    pub band_voxels: f64,
-    /// The multi-scale model's sub-voxel E against the goal, both ways, measured on the goal's
-    /// grid, in voxels of the full grid.
-    pub max_error_subvoxel_voxels: f32,
-    /// Its RMS sub-voxel error.
-    pub rms_error_subvoxel_voxels: f32,
-    /// Each detail level, coarsest first.
-    pub levels: Vec<LevelReport>,
-    /// Why no further level was added.
-    pub stopped: LevelsStop,
-}
-
-/// Why a multi-scale fit added no further detail level.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum LevelsStop {
-    /// Every point within the target and no band voxel on the wrong side.
-    TargetMet,
-    /// The next level's support would be below [`LevelOptions::min_radius`].
-    SmallestRadius,
-    /// [`LevelOptions::max_levels`] levels were added.
-    LevelLimit,
-    /// No point or band voxel was worth a centre.
-    NoCentre,
-}
-
-impl std::fmt::Display for LevelsStop {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            LevelsStop::TargetMet => "the target was met",
-            LevelsStop::SmallestRadius => {
-                "the next level's support would be below the least radius"
-            }
-            LevelsStop::LevelLimit => "the level limit was reached",
-            LevelsStop::NoCentre => "no point was worth a centre",
-        })
-    }
-}
-
-impl LevelsReport {
-    /// One line of the report's table a detail level.
-    pub(super) fn write_levels(&self, s: &mut String) {
-        use std::fmt::Write;
-        for (k, level) in self.levels.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "level {} (radius {:.1} voxels): {} centres, max error at the points {:.2} voxels",
-                k + 1,
-                level.radius_voxels,
-                level.centres,
-                level.max_error_voxels
-            );
-        }
-        let _ = writeln!(s, "detail levels stopped: {}", self.stopped);
-    }
-}
-
 /// A multi-scale fit: its shape (level 0 alone when it met the target) and report.
 #[derive(Debug, Clone)]
 pub struct LevelledFit {
@@ -238,15 +138,6 @@ pub fn after_stall(options: &FitOptions) -> FitOptions {
     options.levels.min_axis = 0;
     options
 }
-
-/// Bytes per goal surface point a multi-scale fit holds beyond the fit's grids: a point on the
-/// mesh (kept by the goal) and its copy, the point, its
-/// residual and error and their copies as candidates, at worst a centre of the finest level
-/// with its sparse row (about pi / spacing^2 neighbours of 12 bytes), its support index
-/// entries (about 84 of 4 bytes) and solve vectors, and the band voxels beside it (index and
-/// value, 8 bytes each, at most 2 x 16 of them, a band being at most `first_radius` voxels of
-/// level 0 wide).
-pub const BYTES_PER_POINT: u64 = 1050;
 
 /// Level 0 on the pyramid's coarsest goal, then detail levels on `grid`, the grid asked for,
 /// whose voxels the errors are stated in; `goal` is on `grid` or on a coarser grid of

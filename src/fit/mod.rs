@@ -44,10 +44,10 @@ use crate::rbf::{self, Implicit, Kernel};
 pub use compact::Precision;
 pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
-pub use levels::{LevelOptions, LevelReport, LevelledFit, LevelsReport, LevelsStop};
+pub use levels::{LevelOptions, LevelledFit};
 pub use report::{
-    BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, StalledLoop,
-    TargetOutcome, Termination, Timings,
+    BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, LevelReport,
+    LevelsReport, LevelsStop, StalledLoop, TargetOutcome, Termination, Timings,
 };
 pub use thickness::Thickness;
 

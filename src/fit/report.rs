@@ -308,7 +308,7 @@ pub struct FitReport {
     pub shell_voxels: Option<f64>,
     /// A multi-scale fit's level 0 and detail levels (see `fit/levels.rs`); absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub levels: Option<super::LevelsReport>,
+    pub levels: Option<LevelsReport>,
     /// For a mesh's fit, the model's polygonized surface (the one `--mesh-out` writes)
     /// measured against the mesh both ways with exact distances, in voxels
     /// ([`crate::surface_distance`]); `None` for a goal given as densities, or where either
@@ -379,7 +379,7 @@ impl FitReport {
                     .levels
                     .last()
                     .map_or(levels.base_max_error_voxels, |l| l.max_error_voxels);
-                (at_points as f32, levels.stopped == super::LevelsStop::TargetMet)
+                (at_points as f32, levels.stopped == LevelsStop::TargetMet)
             }
             None => {
                 let reached = self.error_by(measure);
@@ -511,5 +511,108 @@ impl FitReport {
             }
         }
         s
+    }
+}
+
+/// The figures of one detail level.
+#[derive(Debug, Clone, Serialize)]
+pub struct LevelReport {
+    /// The support radius, in voxels of the full grid.
+    pub radius_voxels: f64,
+    /// Its centres.
+    pub centres: usize,
+    /// What it adds to the binary model file, in bytes (0 until the model is finished: see
+    /// [`crate::pipeline::Fitted::finish`]).
+    pub bytes: usize,
+    /// Stored entries of its sparse matrix.
+    pub matrix_entries: usize,
+    /// Conjugate gradient iterations of its solve.
+    pub solve_iterations: usize,
+    /// The largest interpolation residual at its centres, relative to the largest value.
+    pub solve_residual: f64,
+    /// The largest error at the goal's surface points with this level, in voxels.
+    pub max_error_voxels: f64,
+    /// The 99.9th percentile of those errors, in voxels.
+    pub p999_error_voxels: f64,
+    /// Voxels of the band where the levels below gave the wrong side, which this level fitted
+    /// to the goal's signed distance.
+    pub wrong_side_voxels: usize,
+    /// Seconds spent on this level.
+    pub seconds: f64,
+}
+
+/// The figures of a multi-scale fit, beside the report of its level 0.
+#[derive(Debug, Clone, Serialize)]
+pub struct LevelsReport {
+    /// Level 0's grid.
+    pub base_dims: [usize; 3],
+    /// Level 0's centres.
+    pub base_centres: usize,
+    /// The binary model file's size with level 0 alone, in bytes (0 until the model is
+    /// finished).
+    pub base_bytes: usize,
+    /// The largest error at the goal's surface points with level 0 alone, in voxels of the
+    /// full grid.
+    pub base_max_error_voxels: f64,
+    /// The 99.9th percentile of those errors.
+    pub base_p999_error_voxels: f64,
+    /// The goal's surface points the levels were fitted at.
+    pub points: usize,
+    /// The band, in voxels of the full grid, of the goal's signed distance in which the side
+    /// of the model is checked: level 0's sub-voxel E plus 2 voxels.
+    pub band_voxels: f64,
+    /// The multi-scale model's sub-voxel E against the goal, both ways, measured on the goal's
+    /// grid, in voxels of the full grid.
+    pub max_error_subvoxel_voxels: f32,
+    /// Its RMS sub-voxel error.
+    pub rms_error_subvoxel_voxels: f32,
+    /// Each detail level, coarsest first.
+    pub levels: Vec<LevelReport>,
+    /// Why no further level was added.
+    pub stopped: LevelsStop,
+}
+
+/// Why a multi-scale fit added no further detail level.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LevelsStop {
+    /// Every point within the target and no band voxel on the wrong side.
+    TargetMet,
+    /// The next level's support would be below [`super::LevelOptions::min_radius`].
+    SmallestRadius,
+    /// [`super::LevelOptions::max_levels`] levels were added.
+    LevelLimit,
+    /// No point or band voxel was worth a centre.
+    NoCentre,
+}
+
+impl std::fmt::Display for LevelsStop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            LevelsStop::TargetMet => "the target was met",
+            LevelsStop::SmallestRadius => {
+                "the next level's support would be below the least radius"
+            }
+            LevelsStop::LevelLimit => "the level limit was reached",
+            LevelsStop::NoCentre => "no point was worth a centre",
+        })
+    }
+}
+
+impl LevelsReport {
+    /// One line of the report's table a detail level.
+    pub(super) fn write_levels(&self, s: &mut String) {
+        use std::fmt::Write;
+        for (k, level) in self.levels.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "level {} (radius {:.1} voxels): {} centres, max error at the points {:.2} voxels",
+                k + 1,
+                level.radius_voxels,
+                level.centres,
+                level.max_error_voxels
+            );
+        }
+        let _ = writeln!(s, "detail levels stopped: {}", self.stopped);
     }
 }

@@ -45,8 +45,10 @@ use std::path::Path;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, DVec3};
 
+pub(crate) mod area;
 mod assemble;
 pub(crate) mod edges;
+pub(crate) mod inside;
 mod obj;
 mod off;
 mod ply;

@@ -30,7 +30,7 @@
 //! }
 //! ```
 //!
-//! A composite of models (constructive solid geometry, [`crate::csg`]) has a `shape` of
+//! A composite of models (constructive solid geometry, [`crate::shape::csg`]) has a `shape` of
 //! another type, whose children are shapes themselves, so trees nest:
 //!
 //! ```text
@@ -66,7 +66,7 @@
 //! has no levels, so that builds that only read version 1 still read it; both versions are
 //! read, and a version 1 file with levels is refused.
 //!
-//! Each child's values are divided by its `scale` (its distance scale, see [`crate::csg`])
+//! Each child's values are divided by its `scale` (its distance scale, see [`crate::shape::csg`])
 //! before the operation; the top-level `bounds` hold the composite's inside and `grid` is null.
 //! A child keeps only its shape and bounds: its fit grid and report stay in its own file.
 //!
@@ -86,7 +86,6 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::csg::{Child, Composite, Operation};
 use crate::error::{Error, Location, Result};
 use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
@@ -96,6 +95,7 @@ use crate::rbf::{
     Constraint, ConstraintKind, DetailLevel, Implicit, Kernel, Lattice, Normalization,
 };
 use crate::shape::Shape;
+use crate::shape::csg::{Child, Composite, Operation};
 
 /// The `format` field of every model file.
 pub const FORMAT: &str = "implicitize-model";

@@ -71,7 +71,7 @@
 //! (`gmres.rs`) makes the iterative solve (`iterative.rs`); `solve.rs` checks the input and
 //! the result and chooses between the two. The compactly supported functions of detail levels
 //! (`compact.rs`) stand apart: their own kernel, index and sparse solve. No module imports one that imports it back
-//! (`tests/rbf_layers.rs`).
+//! (`tests/layers.rs`).
 
 mod compact;
 mod csv;

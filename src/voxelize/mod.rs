@@ -15,7 +15,7 @@
 //!   its signed volume is negative).
 //! * A ray whose entries and exits balance votes by the nonzero winding rule; otherwise a ray
 //!   with an even number of crossings votes by parity; a ray with an odd number of crossings
-//!   passed through a hole and abstains (see `rays::vote`).
+//!   passed through a hole and abstains (see `mesh::inside`).
 //! * When at least two rays vote and all votes agree, that is the answer. Otherwise the
 //!   generalized winding number of the re-oriented mesh decides: inside when `w > 1/2`
 //!   (Jacobson et al. 2013, evaluated hierarchically as in Barill et al. 2018).
@@ -57,10 +57,7 @@
 //! the classification is parallel over slabs of the grid (rayon). Besides the densities
 //! (4 bytes a voxel), one byte a voxel holds the centres' states while voxelizing.
 
-pub(crate) mod orient;
-pub(crate) mod rays;
 pub mod shell;
-pub(crate) mod winding;
 
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -73,8 +70,9 @@ use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
 use crate::mesh::Mesh;
 
-use rays::{Rays, plane_axes, vote};
-use winding::Winding;
+use crate::mesh::inside::rays::{Rays, plane_axes, vote};
+use crate::mesh::inside::winding::Winding;
+use crate::mesh::inside::{Votes, orient};
 
 /// How to voxelize. The default suits the paper's volumes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -354,32 +352,6 @@ struct Classifier<'a> {
     s: usize,
     /// The voxel centres the winding number decided.
     decided: AtomicUsize,
-}
-
-/// The votes of the rays at one point.
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct Votes {
-    inside: u8,
-    outside: u8,
-}
-
-impl Votes {
-    pub(crate) fn add(&mut self, vote: Option<bool>) {
-        match vote {
-            Some(true) => self.inside += 1,
-            Some(false) => self.outside += 1,
-            None => {}
-        }
-    }
-
-    /// The verdict when at least two rays vote and all agree.
-    pub(crate) fn verdict(self) -> Option<bool> {
-        match (self.inside, self.outside) {
-            (n, 0) if n >= 2 => Some(true),
-            (0, n) if n >= 2 => Some(false),
-            _ => None,
-        }
-    }
 }
 
 impl<'a> Classifier<'a> {

@@ -2,15 +2,17 @@
 //! CSG tree of shapes.
 //!
 //! This is the one place that lists them. A [`crate::Model`] holds a shape with its bounds,
-//! fit grid and report; a CSG child ([`crate::csg::Child`]) holds a shape with its bounds and
+//! fit grid and report; a CSG child ([`csg::Child`]) holds a shape with its bounds and
 //! distance scale, so trees nest. Every shape is a [`Field`]: positive inside, negative
 //! outside, in the mesh's units.
 
-use crate::csg::Composite;
+pub mod csg;
+
 use crate::field::Field;
 use crate::geometry::DVec3;
 use crate::levels::MultiScale;
 use crate::rbf::Implicit;
+use csg::Composite;
 
 /// The shape a model describes.
 #[derive(Debug, Clone)]
@@ -18,7 +20,7 @@ use crate::rbf::Implicit;
 pub enum Shape {
     /// A variational implicit function.
     Rbf(Implicit),
-    /// A CSG tree of shapes (see [`crate::csg`]).
+    /// A CSG tree of shapes (see [`csg`]).
     Csg(Composite),
     /// A variational implicit function with detail levels over it (see [`crate::levels`]).
     Levels(MultiScale),

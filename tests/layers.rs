@@ -1,17 +1,18 @@
-//! The modules of `src/rbf` form layers: no module refers to one that refers back to it,
-//! directly or through others.
+//! The modules of the crate form layers: in every module that has children (the crate itself,
+//! `rbf`, `fit`, `rbf::kernel`, ...), no child refers to a sibling that refers back to it,
+//! directly or through others. So a stage never imports the front door that chains it.
 //!
-//! The modules are the children of `rbf`: a file `src/rbf/x.rs` and the folder `src/rbf/x/`
-//! count as one module `x`. `src/rbf/mod.rs` is the facade above them: it defines the shared
-//! types (`Implicit`, `Constraint`, ...) and re-exports the public items of some children;
-//! using a type it defines is no edge, using an item it re-exports is an edge to the module
-//! that defines it.
+//! The children of a module are its files and folders: a file `x.rs` and the folder `x/` count
+//! as one child `x`. The module's own file (`lib.rs` for the crate, `mod.rs`, or `x.rs` beside
+//! a folder `x/`) is the facade above them: it defines shared types and re-exports items of
+//! its children; using a type it defines is no edge, using an item it re-exports is an edge
+//! to the child that defines it.
 //!
 //! An edge `x -> y` is a path in `x`'s source, test modules included, that names `y`:
-//! `super::y`, `super::super::y`, `crate::rbf::y` or an item of `y` re-exported by
-//! `src/rbf/mod.rs`, in a `use` or in code. Method calls are not paths, so a call through a
-//! method of a facade type is no edge; glob imports of the facade (`use super::*` from a child
-//! of `rbf`) name nothing and are no edge either.
+//! `super::y`, `super::super::y`, `crate::<module>::y` or an item of `y` re-exported by the
+//! facade, in a `use` or in code. Method calls are not paths, so a call through a method of a
+//! facade type is no edge; glob imports of the facade (`use super::*` from a child) name
+//! nothing and are no edge either. Doc links are comments and name nothing.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -19,19 +20,34 @@ use std::path::{Path, PathBuf};
 /// A module's dependencies: the other modules it names.
 type Graph = BTreeMap<String, BTreeSet<String>>;
 
+/// A module with children: its path from the crate (empty for the crate) and its folder.
+struct Parent {
+    path: Vec<String>,
+    folder: PathBuf,
+}
+
 #[test]
-fn the_modules_of_rbf_have_no_import_cycle() {
-    let graph = graph_of(&read_rbf());
-    if let Some(cycle) = find_cycle(&graph) {
-        panic!("the modules of src/rbf refer to each other in a cycle: {}", cycle.join(" -> "));
+fn no_module_has_children_in_an_import_cycle() {
+    let parents = parents();
+    assert!(parents.len() >= 10, "too few modules with children: {}", parents.len());
+    for parent in &parents {
+        let graph = graph_of(&read_folder(&parent.folder), &parent.path);
+        if let Some(cycle) = find_cycle(&graph) {
+            panic!(
+                "the children of `crate{}` refer to each other in a cycle: {}",
+                parent.path.iter().map(|p| format!("::{p}")).collect::<String>(),
+                cycle.join(" -> ")
+            );
+        }
     }
 }
 
-/// The check sees the layers the module docs describe, so that it is not vacuous: the loops
-/// under the treecode, evaluation and the solves, the dense factorization under both solves.
+/// The check sees the layers the module docs describe, so that it is not vacuous: in `rbf`,
+/// the loops under the treecode, evaluation and the solves, the dense factorization under both
+/// solves; in the crate, the front door above the stages it chains.
 #[test]
 fn the_graph_has_the_layers_of_the_module_docs() {
-    let graph = graph_of(&read_rbf());
+    let rbf = graph_of(&read_folder(&src().join("rbf")), &["rbf".to_string()]);
     for (from, to) in [
         ("kernel", "isa"),
         ("treecode", "kernel"),
@@ -44,7 +60,19 @@ fn the_graph_has_the_layers_of_the_module_docs() {
         ("solve", "dense"),
         ("solve", "iterative"),
     ] {
-        assert!(graph[from].contains(to), "no edge {from} -> {to} in {graph:?}");
+        assert!(rbf[from].contains(to), "no edge rbf::{from} -> {to} in {rbf:?}");
+    }
+    let krate = graph_of(&read_folder(&src()), &[]);
+    for (from, to) in [
+        ("pipeline", "fit"),
+        ("pipeline", "sample"),
+        ("pipeline", "memory"),
+        ("pipeline", "voxelize"),
+        ("batch", "pipeline"),
+        ("fit", "rbf"),
+        ("model", "shape"),
+    ] {
+        assert!(krate[from].contains(to), "no edge {from} -> {to} in {krate:?}");
     }
 }
 
@@ -59,16 +87,70 @@ fn a_cycle_is_found_and_named() {
     ];
     let files: Vec<(PathBuf, String)> =
         files.iter().map(|(p, s)| (PathBuf::from(p), s.to_string())).collect();
-    let graph = graph_of(&files);
+    let rbf = ["rbf".to_string()];
+    let graph = graph_of(&files, &rbf);
     assert_eq!(find_cycle(&graph), Some(vec!["a".into(), "b".into(), "a".into()]));
     let acyclic = &files[..3];
-    assert_eq!(find_cycle(&graph_of(acyclic)), None);
+    assert_eq!(find_cycle(&graph_of(acyclic, &rbf)), None);
 }
 
-/// Every `.rs` file under `src/rbf`, by its path relative to `src/rbf`.
-fn read_rbf() -> Vec<(PathBuf, String)> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/rbf");
+/// At the crate's top, `crate::y` names a child and `lib.rs` is the facade; inside a nested
+/// module, `crate::` paths name a child only through the module's whole path.
+#[test]
+fn crate_paths_are_resolved_from_the_module_they_name() {
+    let top = [
+        ("lib.rs", "pub mod a; pub mod b; pub use b::Thing;"),
+        ("a.rs", "use crate::Thing;"),
+        ("b.rs", "pub struct Thing; fn f() { crate::a::g(); }"),
+    ];
+    let top: Vec<(PathBuf, String)> =
+        top.iter().map(|(p, s)| (PathBuf::from(p), s.to_string())).collect();
+    assert_eq!(find_cycle(&graph_of(&top, &[])), Some(vec!["a".into(), "b".into(), "a".into()]));
+    let nested = [
+        ("x.rs", "use crate::m::n::y::f; use crate::m::y::g; use crate::y::h;"),
+        ("y.rs", "pub fn f() {}"),
+    ];
+    let nested: Vec<(PathBuf, String)> =
+        nested.iter().map(|(p, s)| (PathBuf::from(p), s.to_string())).collect();
+    let graph = graph_of(&nested, &["m".to_string(), "n".to_string()]);
+    assert_eq!(graph["x"], BTreeSet::from(["y".to_string()]));
+}
+
+/// The crate's `src` folder.
+fn src() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
+/// The crate and every module of it that is a folder, with its path from the crate.
+fn parents() -> Vec<Parent> {
+    let mut parents = vec![Parent { path: Vec::new(), folder: src() }];
+    let mut i = 0;
+    while i < parents.len() {
+        let mut children: Vec<PathBuf> = std::fs::read_dir(&parents[i].folder)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.is_dir())
+            .collect();
+        children.sort();
+        for folder in children {
+            let mut path = parents[i].path.clone();
+            path.push(folder.file_name().unwrap().to_string_lossy().into_owned());
+            parents.push(Parent { path, folder });
+        }
+        i += 1;
+    }
+    parents
+}
+
+/// Every `.rs` file under `root`, by its path relative to `root`, with a facade beside the
+/// folder (`root.rs` for `root/`) as `mod.rs`.
+fn read_folder(root: &Path) -> Vec<(PathBuf, String)> {
+    let root = root.to_path_buf();
     let mut files = Vec::new();
+    let beside = root.with_extension("rs");
+    if beside.is_file() {
+        files.push((PathBuf::from("mod.rs"), std::fs::read_to_string(&beside).unwrap()));
+    }
     let mut folders = vec![root.clone()];
     while let Some(folder) = folders.pop() {
         for entry in std::fs::read_dir(&folder).unwrap() {
@@ -85,18 +167,18 @@ fn read_rbf() -> Vec<(PathBuf, String)> {
     files
 }
 
-/// The dependency graph of the children of `rbf` given its files (paths relative to
-/// `src/rbf`).
-fn graph_of(files: &[(PathBuf, String)]) -> Graph {
+/// The dependency graph of the children of the module at `parent` (its path from the crate)
+/// given its files (paths relative to its folder).
+fn graph_of(files: &[(PathBuf, String)], parent: &[String]) -> Graph {
     let modules: BTreeSet<String> =
         files.iter().filter_map(|(path, _)| module_path(path).first().cloned()).collect();
-    let facade = files.iter().find(|(path, _)| path == Path::new("mod.rs"));
+    let facade = files.iter().find(|(path, _)| module_path(path).is_empty());
     let reexports = facade.map(|(_, text)| reexports(&tokens(text), &modules)).unwrap_or_default();
     let mut graph: Graph = modules.iter().map(|m| (m.clone(), BTreeSet::new())).collect();
     for (path, text) in files {
         let base = module_path(path);
         let Some(module) = base.first() else { continue };
-        for named in named_items(&tokens(text), &base) {
+        for named in named_items(&tokens(text), &base, parent) {
             let target =
                 if modules.contains(&named) { Some(&named) } else { reexports.get(&named) };
             if let Some(target) = target.filter(|t| *t != module) {
@@ -107,9 +189,12 @@ fn graph_of(files: &[(PathBuf, String)]) -> Graph {
     graph
 }
 
-/// The module path of a file below `rbf`: `x.rs` and `x/mod.rs` are `[x]`, `x/y.rs` is
-/// `[x, y]`, `mod.rs` is `[]`.
+/// The module path of a file below the parent's folder: `x.rs` and `x/mod.rs` are `[x]`,
+/// `x/y.rs` is `[x, y]`, the facade `mod.rs` (the crate's `lib.rs`) is `[]`.
 fn module_path(path: &Path) -> Vec<String> {
+    if path == Path::new("lib.rs") {
+        return Vec::new();
+    }
     let mut parts: Vec<String> =
         path.iter().map(|p| p.to_string_lossy().trim_end_matches(".rs").to_string()).collect();
     if parts.last().is_some_and(|p| p == "mod") {
@@ -170,10 +255,11 @@ fn tokens(text: &str) -> Vec<String> {
     out
 }
 
-/// The names of `rbf`'s children, and of the facade's re-exports, that the paths in a file of
-/// module `base` name: each path is resolved from the module it is written in (the file's,
-/// or an inline module's inside it) to a path from `rbf`, whose first segment is the name.
-fn named_items(tokens: &[String], base: &[String]) -> Vec<String> {
+/// The names of the parent's children, and of the facade's re-exports, that the paths in a
+/// file of module `base` (a path from the parent) name: each path is resolved from the module
+/// it is written in (the file's, or an inline module's inside it) to a path from the parent,
+/// whose first segment is the name. `parent` is the parent's path from the crate.
+fn named_items(tokens: &[String], base: &[String], parent: &[String]) -> Vec<String> {
     let mut names = Vec::new();
     // The inline modules around the current token, with the brace depth each one opened at.
     let mut inline: Vec<(String, usize)> = Vec::new();
@@ -194,12 +280,12 @@ fn named_items(tokens: &[String], base: &[String]) -> Vec<String> {
         } else if !after_separator && (t == "super" || t == "crate") {
             let mut here: Vec<String> = base.to_vec();
             here.extend(inline.iter().map(|(m, _)| m.clone()));
-            let (resolved, next) = resolve(tokens, i, here);
+            let (resolved, next) = resolve(tokens, i, here, parent);
             match resolved {
-                // At `rbf` itself: what follows names a child or an item of the facade.
-                Some(from_rbf) if from_rbf.is_empty() => names.extend(first_segments(tokens, next)),
-                // Inside a child of `rbf`: that child is named, whatever follows.
-                Some(mut from_rbf) => names.push(from_rbf.swap_remove(0)),
+                // At the parent itself: what follows names a child or an item of the facade.
+                Some(here) if here.is_empty() => names.extend(first_segments(tokens, next)),
+                // Inside a child of the parent: that child is named, whatever follows.
+                Some(mut here) => names.push(here.swap_remove(0)),
                 None => {}
             }
             i = next.max(i + 1);
@@ -211,18 +297,28 @@ fn named_items(tokens: &[String], base: &[String]) -> Vec<String> {
 }
 
 /// Follows the path starting at token `i` (`super::...` or `crate::...`) from the module
-/// `here` (a path from `rbf`) for as long as it climbs (`super`) or enters `rbf`
-/// (`crate::rbf`): the module reached, as a path from `rbf` (`None` outside `rbf`), and the
-/// index of the first token after the climb and its `::`.
-fn resolve(tokens: &[String], mut i: usize, mut here: Vec<String>) -> (Option<Vec<String>>, usize) {
+/// `here` (a path from the parent) for as long as it climbs (`super`) or enters the parent
+/// (`crate::` and the parent's path): the module reached, as a path from the parent (`None`
+/// outside the parent), and the index of the first token after the climb and its `::`.
+fn resolve(
+    tokens: &[String],
+    mut i: usize,
+    mut here: Vec<String>,
+    parent: &[String],
+) -> (Option<Vec<String>>, usize) {
     let separator = |k: usize| tokens.get(k).is_some_and(|t| t == "::");
     if tokens[i] == "crate" {
-        if !(separator(i + 1) && tokens.get(i + 2).is_some_and(|t| t == "rbf") && separator(i + 3))
-        {
+        if !separator(i + 1) {
             return (None, i + 1);
         }
+        i += 2;
+        for segment in parent {
+            if !(tokens.get(i) == Some(segment) && separator(i + 1)) {
+                return (None, i);
+            }
+            i += 2;
+        }
         here.clear();
-        i += 4;
     }
     while tokens.get(i).is_some_and(|t| t == "super") && separator(i + 1) {
         if here.pop().is_none() {

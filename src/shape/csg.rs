@@ -55,10 +55,10 @@ use std::fmt;
 
 use serde::{Deserialize, Serialize};
 
+use super::Shape;
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
-use crate::shape::Shape;
 
 /// A boolean operation on shapes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
