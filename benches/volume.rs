@@ -3,7 +3,7 @@
 //! whole `implicitize sdf` process with the Python peer on the Stanford bunny.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use implicitize::distance::{inside, signed_distance};
+use implicitize::edt::{inside, signed_distance};
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
 use implicitize::{Grid, Resolution};
 use implicitize_test_support::data::triceratops;

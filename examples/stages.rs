@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use implicitize::rbf::{Constraint, Implicit, Kernel};
-use implicitize::{DVec3, Grid, Resolution, distance, mesh, polygonize, voxelize};
+use implicitize::{DVec3, Grid, Resolution, edt, mesh, polygonize, voxelize};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -24,7 +24,7 @@ fn main() -> anyhow::Result<()> {
     let density = voxelize::voxelize(&mesh, &grid, &Default::default())?.density;
     let voxelize_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let sd = distance::signed_distance(&distance::inside(&density));
+    let sd = edt::signed_distance(&edt::inside(&density));
     let signed_distance_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let surface = polygonize::polygonize(&sd, 0.0);

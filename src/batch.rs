@@ -161,9 +161,9 @@ pub struct Entry {
     #[serde(default)]
     pub stopped: Option<String>,
     /// The model's polygonized surface against the mesh, both ways, with the share of the mesh
-    /// inside its own solid (see [`crate::surface_distance::MeshDistances`]).
+    /// inside its own solid (see [`crate::metrics::surface::MeshDistances`]).
     #[serde(default)]
-    pub mesh_distance: Option<crate::surface_distance::MeshDistances>,
+    pub mesh_distance: Option<crate::metrics::surface::MeshDistances>,
     /// What made the outputs (for a failure, what was tried, when the input could be read).
     pub origin: Option<Origin>,
     /// Whether this run reused the outputs of an earlier one.

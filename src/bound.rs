@@ -14,7 +14,7 @@
 //!   over its distances to the box (each is monotone in `r` for every kernel, so it is read at
 //!   the two ends).
 //!
-//! A detail level ([`crate::levels`]) adds the range of each of its terms whose support meets the
+//! A detail level ([`crate::rbf::MultiScale`]) adds the range of each of its terms whose support meets the
 //! box: Wendland's function falls from 1 to 0 over its support, so a term lies between its
 //! values at the farthest and the nearest distance. A CSG composite ([`crate::shape::csg`]) combines
 //! its children's intervals, each divided by its distance scale, through its operation: the
@@ -29,7 +29,7 @@
 use rayon::prelude::*;
 
 use crate::geometry::{Aabb, DVec3};
-use crate::levels::MultiScale;
+use crate::rbf::MultiScale;
 use crate::rbf::{DetailLevel, Implicit, Kernel, wendland};
 use crate::render::LatticeGeometry;
 use crate::shape::Shape;

@@ -77,12 +77,12 @@
 //! | read a mesh (OBJ, PLY, STL, OFF) | [`mesh`] | 3.2 |
 //! | place a voxel grid | [`grid`] | 4 |
 //! | voxelize: densities, robust inside/outside | [`voxelize`] | 4.1 |
-//! | signed distance, boundary voxels, surface points | [`distance`] | 4.2, 5.1, 5.3 |
-//! | exact distance from points to a mesh, closest points, signed by the winding number | [`mesh_distance`] | |
+//! | signed distance on the voxels (distance transform), boundary voxels, surface points | [`edt`] | 4.2, 5.1, 5.3 |
+//! | exact distance from points to a mesh, closest points, signed by the inside test | [`mesh_query`] | |
 //! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
-//! | error metrics E, Ew, RMS and the radius of regularity | [`metrics`] | 4.3 |
+//! | error metrics E, Ew, RMS and the radius of regularity; distances between two surfaces | [`metrics`] | 4.3 |
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
-//! | detail levels of compactly supported functions over the fit | [`levels`] | |
+//! | detail levels of compactly supported functions over the fit | [`rbf::MultiScale`] | |
 //! | a mesh to a fitted model in one call | [`pipeline`] | |
 //! | the shapes a model holds; save and load models | [`shape`], [`model`] | |
 //! | a 2D goal from a PNG image | [`goal2d`] | 4.3 |
@@ -98,17 +98,16 @@
 
 pub mod batch;
 pub mod bound;
-pub mod distance;
+pub mod edt;
 pub mod error;
 pub mod field;
 pub mod fit;
 pub mod geometry;
 pub mod goal2d;
 pub mod grid;
-pub mod levels;
 pub mod memory;
 pub mod mesh;
-pub mod mesh_distance;
+pub mod mesh_query;
 pub mod metrics;
 pub mod model;
 pub mod morph;
@@ -121,7 +120,6 @@ pub mod render;
 pub mod sample;
 pub mod shader;
 pub mod shape;
-pub mod surface_distance;
 pub mod voxelize;
 
 pub use error::{Error, Result};

@@ -75,12 +75,12 @@ const POLYGONIZE_BASE: u64 = 96 << 20;
 const MODEL_TRIANGLES_PER_AREA: f64 = 10.0;
 /// Bytes per triangle of a fitted model's polygonized surface while the report measures the mesh
 /// against it: the surface (half a vertex and one triangle, 24) and the distance query built
-/// over it ([`crate::mesh_distance::BYTES_PER_TRIANGLE`]). Polygonizing it holds less
+/// over it ([`crate::mesh_query::BYTES_PER_TRIANGLE`]). Polygonizing it holds less
 /// (measured: 130 a triangle for the bunny's model of 22.8 million triangles at 1024, its values,
 /// visited cubes and edge tables included).
-const MODEL_SURFACE_PER_TRIANGLE: u64 = 24 + crate::mesh_distance::BYTES_PER_TRIANGLE as u64;
+const MODEL_SURFACE_PER_TRIANGLE: u64 = 24 + crate::mesh_query::BYTES_PER_TRIANGLE as u64;
 /// Bytes per triangle of a distance query, beyond reading the mesh: the hierarchy while it is
-/// built ([`crate::mesh_distance::BYTES_PER_TRIANGLE`], 222), for the sign the lines' grids
+/// built ([`crate::mesh_query::BYTES_PER_TRIANGLE`], 222), for the sign the lines' grids
 /// across the three axes (a copy of the re-oriented corners, 72, and for each axis at most 8
 /// entries a triangle and about one cell, 40: 192 for the three) and the winding number's tree
 /// where the lines disagree (its nodes and reordered corners, about 300). Measured with
@@ -117,10 +117,10 @@ impl Estimate {
     /// `sdf --exact` of a mesh of `triangles` triangles on a grid of `dims` voxels: the
     /// volume's grids (the exact values replace the densities in place; a band's flags take
     /// two bytes a voxel while it is found) and the distance query's hierarchy
-    /// ([`crate::mesh_distance::BYTES_PER_TRIANGLE`] a triangle).
+    /// ([`crate::mesh_query::BYTES_PER_TRIANGLE`] a triangle).
     pub fn exact_volume(dims: [usize; 3], triangles: usize) -> Estimate {
         let grid = Estimate::grid(dims, VOLUME_PER_VOXEL, triangles);
-        let query = crate::mesh_distance::BYTES_PER_TRIANGLE as u64;
+        let query = crate::mesh_query::BYTES_PER_TRIANGLE as u64;
         Estimate {
             bytes: grid.bytes.saturating_add(query.saturating_mul(triangles as u64)),
             ..grid
@@ -148,7 +148,7 @@ impl Estimate {
     /// thickened surface of a thin wall has about as many triangles as its two faces).
     pub fn shell(dims: [usize; 3], triangles: usize) -> Estimate {
         let grid = Estimate::grid(dims, 2 + FOLLOW_PER_VOXEL, 0);
-        let query = crate::mesh_distance::BYTES_PER_TRIANGLE as u64;
+        let query = crate::mesh_query::BYTES_PER_TRIANGLE as u64;
         Estimate {
             bytes: grid.bytes.saturating_add(query.saturating_mul(triangles as u64)),
             ..grid
@@ -165,7 +165,7 @@ impl Estimate {
 
     /// Distances from `points` points to a mesh of `triangles` triangles
     /// ([`crate::pipeline::distance`]), `signed` or not: unsigned distances need the hierarchy
-    /// alone ([`crate::mesh_distance::BYTES_PER_TRIANGLE`] a triangle), not the sign's lines and
+    /// alone ([`crate::mesh_query::BYTES_PER_TRIANGLE`] a triangle), not the sign's lines and
     /// winding number (measured: 228 bytes a triangle all told, reading the mesh included, for
     /// `implicitize distance --unsigned` of 10 points to a polygonized bunny of 22.8 million
     /// triangles, 5.2 GB at the peak).
@@ -173,7 +173,7 @@ impl Estimate {
         let query = if signed {
             DISTANCE_PER_TRIANGLE
         } else {
-            crate::mesh_distance::BYTES_PER_TRIANGLE as u64
+            crate::mesh_query::BYTES_PER_TRIANGLE as u64
         };
         let per_triangle = PER_TRIANGLE + query;
         Estimate {
@@ -198,7 +198,7 @@ impl Estimate {
 
     /// A fit with detail levels of a mesh of `triangles` triangles on a grid of `dims` voxels,
     /// its goal on a grid of `goal_dims` (`dims`, or a coarser grid: see
-    /// [`crate::fit::levels::goal_grid`]), at `points` surface points
+    /// [`crate::fit::detail::goal_grid`]), at `points` surface points
     /// (`LEVELS_PER_POINT` a point): level 0's iterations, on a grid of a
     /// quarter of the goal's resolution or less, fit in what the goal's measure holds. The
     /// model's surface, polygonized on `dims` once the goal is freed, is

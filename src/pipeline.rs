@@ -37,7 +37,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use crate::distance;
+use crate::edt;
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::fit::{
@@ -47,13 +47,13 @@ use crate::geometry::{Aabb, DVec3};
 use crate::grid::{Grid, Resolution, Units, Values, Volume};
 use crate::memory::{Estimate, MemoryLimit};
 use crate::mesh::{self, Mesh};
-use crate::mesh_distance::{self, MeshDistance, Nearest};
+use crate::mesh_query::{self, MeshQuery, Nearest};
+use crate::metrics;
 use crate::model::{Model, ModelFormat};
 use crate::rbf::{Implicit, Isa};
 pub use crate::sample::SampleOptions;
 use crate::sample::Samples;
 use crate::shape::Shape;
-use crate::surface_distance;
 use crate::voxelize::shell::{self, Shell};
 use crate::voxelize::{self, Inside, VoxelizeOptions, Voxelized};
 
@@ -200,7 +200,7 @@ pub enum VolumeKind {
     SignedDistance,
     /// The exact distance from each voxel centre to the mesh's triangles, in mesh units,
     /// positive where the voxelization is inside (the sign of [`VolumeKind::SignedDistance`]);
-    /// see [`mesh_distance::grid`].
+    /// see [`mesh_query::grid`].
     ExactSignedDistance,
 }
 
@@ -209,7 +209,7 @@ pub enum VolumeKind {
 #[non_exhaustive]
 pub struct DistanceOptions {
     /// Sign the distances, positive inside as the voxelizer decides it (default; see
-    /// [`crate::mesh_distance`]), or leave them unsigned (and skip that work).
+    /// [`crate::mesh_query`]), or leave them unsigned (and skip that work).
     pub signed: bool,
     /// The memory the job may use.
     pub memory_limit: MemoryLimit,
@@ -259,7 +259,7 @@ pub struct FitOutputs {
     pub surface: Option<PathBuf>,
     /// The goal's signed distance volume (NumPy, with its grid in a `.json` beside it): on the
     /// fit's grid, or on the coarser grid of the goal of a fit with detail levels on a large
-    /// grid ([`fit::levels::goal_grid`]).
+    /// grid ([`fit::detail::goal_grid`]).
     pub sdf: Option<PathBuf>,
 }
 
@@ -348,11 +348,11 @@ pub struct Prepared<'a> {
     /// The grid asked for, whose voxels the fit's errors are stated in.
     grid: Grid,
     /// The goal: on `grid`, or, for a fit with detail levels on a large grid, on a coarser one
-    /// ([`fit::levels::goal_grid`]).
+    /// ([`fit::detail::goal_grid`]).
     goal: Goal,
     inside: Inside,
     /// The mesh's exact distance query.
-    query: Arc<MeshDistance>,
+    query: Arc<MeshQuery>,
     thickness: Thickness,
     options: MeshFitOptions,
     /// The memory the fit's grids leave for its solves.
@@ -723,20 +723,20 @@ pub fn volume(
     let volume = match kind {
         VolumeKind::Density => voxelized.density,
         VolumeKind::SignedDistance => {
-            let inside = distance::inside(&voxelized.density);
+            let inside = edt::inside(&voxelized.density);
             drop(voxelized.density);
-            distance::signed_distance(&inside)
+            edt::signed_distance(&inside)
         }
         VolumeKind::ExactSignedDistance => {
-            let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
-            mesh_distance::grid::signed_distance(&query, voxelized.density, options.band)
+            let query = MeshQuery::new(mesh).map_err(|e| e.in_context(source))?;
+            mesh_query::grid::signed_distance(&query, voxelized.density, options.band)
         }
     };
     Ok((volume, voxelized.inside))
 }
 
 /// The exact distance from each of `points` to `mesh`'s triangles and the closest points (see
-/// [`crate::mesh_distance`]), signed (inside as the voxelizer decides it) unless `options` says not to.
+/// [`crate::mesh_query`]), signed (inside as the voxelizer decides it) unless `options` says not to.
 /// `source` names the mesh in errors.
 ///
 /// # Errors
@@ -757,14 +757,14 @@ pub fn distance(
     Estimate::distance(mesh.triangles.len(), points.len(), options.signed)
         .check(options.memory_limit.bytes(), || None)
         .map_err(|e| e.in_context(source))?;
-    let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
+    let query = MeshQuery::new(mesh).map_err(|e| e.in_context(source))?;
     let nearest = query.nearest_all(points);
     let values = if options.signed {
         let inside = query.inside(points);
         nearest
             .iter()
             .zip(inside)
-            .map(|(n, inside)| mesh_distance::signed(n.distance, inside))
+            .map(|(n, inside)| mesh_query::signed(n.distance, inside))
             .collect()
     } else {
         nearest.iter().map(|n| n.distance).collect()
@@ -788,7 +788,7 @@ pub fn sample(mesh: &Mesh, source: &str, n: usize, options: &SampleOptions) -> R
     Estimate::sample(mesh.triangles.len(), n)
         .check(options.memory_limit.bytes(), || None)
         .map_err(|e| e.in_context(source))?;
-    let query = MeshDistance::new(mesh).map_err(|e| e.in_context(source))?;
+    let query = MeshQuery::new(mesh).map_err(|e| e.in_context(source))?;
     crate::sample::sample(mesh, &query, source, n, options)
 }
 
@@ -857,9 +857,9 @@ fn mesh_bounds(mesh: &Mesh, source: &str) -> Result<Aabb> {
 }
 
 impl MeshFitOptions {
-    /// Whether the fit on `grid` has detail levels ([`fit::levels::applies`]).
+    /// Whether the fit on `grid` has detail levels ([`fit::detail::applies`]).
     fn has_levels(&self, grid: &Grid) -> bool {
-        self.method == Method::Iterative && fit::levels::applies(grid, &self.fit)
+        self.method == Method::Iterative && fit::detail::applies(grid, &self.fit)
     }
 }
 
@@ -874,7 +874,7 @@ impl<'a> Prepared<'a> {
     /// # Errors
     /// An `IMPLICITIZE_ISA` this CPU cannot run ([`Isa::from_env`]), an option out of range, a
     /// grid that cannot be placed or does not fit in the memory limit, the errors of
-    /// [`voxelize::voxelize`] and [`MeshDistance::new`], and a solid too thin for the grid
+    /// [`voxelize::voxelize`] and [`MeshQuery::new`], and a solid too thin for the grid
     /// ([`Error::Thin`], see [`Thickness::refusal`]), refused before its goal is made.
     pub fn new(mesh: &'a Mesh, source: &str, options: &MeshFitOptions) -> Result<Prepared<'a>> {
         Isa::from_env()?;
@@ -892,7 +892,7 @@ impl<'a> Prepared<'a> {
         let faces = if options.shell.is_some() { 2.0 } else { 1.0 };
         let area = faces * mesh_area(mesh);
         let goal_grid = |g: &Grid| match options.shell {
-            None if options.has_levels(g) => fit::levels::goal_grid(g, &options.fit),
+            None if options.has_levels(g) => fit::detail::goal_grid(g, &options.fit),
             _ => *g,
         };
         let estimate = |g: &Grid, goal: &Grid| {
@@ -910,12 +910,12 @@ impl<'a> Prepared<'a> {
         };
         let grid = checked_grid(&bounds, options.resolution, limit, |g| estimate(g, &goal_grid(g)))
             .map_err(|e| e.in_context(source))?;
-        let query = Arc::new(MeshDistance::new(mesh).map_err(|e| e.in_context(source))?);
+        let query = Arc::new(MeshQuery::new(mesh).map_err(|e| e.in_context(source))?);
         let volumes = |goal_grid: &Grid| -> Result<(Voxelized, Volume<f32>, Thickness)> {
             let voxelized = voxelize::voxelize(mesh, goal_grid, &options.voxelize)
                 .map_err(|e| e.in_context(source))?;
 
-            let sd = distance::signed_distance(&distance::inside(&voxelized.density));
+            let sd = edt::signed_distance(&edt::inside(&voxelized.density));
             let thickness = Thickness::measure(&sd, mesh, &query, options.fit.seed);
             Ok((voxelized, sd, thickness))
         };
@@ -997,7 +997,7 @@ impl<'a> Prepared<'a> {
 
     /// The grid asked for, whose voxels the fit's errors are stated in: the grid the mesh was
     /// voxelized on, unless a fit with detail levels voxelizes its goal on a coarser one
-    /// ([`fit::levels::goal_grid`]; [`Prepared::goal`] has its grid).
+    /// ([`fit::detail::goal_grid`]; [`Prepared::goal`] has its grid).
     pub fn grid(&self) -> &Grid {
         &self.grid
     }
@@ -1025,7 +1025,7 @@ impl<'a> Prepared<'a> {
     /// reaches that cap ends there ([`Termination::MemoryLimit`]) with its best model.
     ///
     /// The model's zero set is then polygonized on the fit's grid ([`Fitted::surface`]) and
-    /// measured against the mesh both ways, exactly ([`crate::surface_distance`]): the
+    /// measured against the mesh both ways, exactly ([`crate::metrics::surface`]): the
     /// report's `mesh_distance`. That runs once the fit's iteration volumes and solve are
     /// freed, and has no estimate of its own: the polygonization and the two distance
     /// hierarchies (about 260 bytes a triangle of either surface).
@@ -1060,28 +1060,28 @@ impl<'a> Prepared<'a> {
                 let half = shell.in_mesh_units(voxel) / voxel / 2.0;
                 // The middle of the wall, about as many points as one of its faces has.
                 let n = self.goal.surface().len() / 2;
-                let mid = surface_distance::sample(self.mesh, n, options.seed).unwrap_or_default();
-                let fitted = fit::levels::fit_shell(&self.goal, &mid, half, &options)?;
+                let mid = metrics::surface::sample(self.mesh, n, options.seed).unwrap_or_default();
+                let fitted = fit::detail::fit_shell(&self.goal, &mid, half, &options)?;
                 (fitted.shape, fitted.report)
             }
-            (Method::Iterative, _) if fit::levels::applies(&self.grid, &options) => {
+            (Method::Iterative, _) if fit::detail::applies(&self.grid, &options) => {
                 self.levels_estimate().check(self.limit, || None)?;
                 let mut on_iteration = on_iteration;
                 let fitted =
-                    fit::levels::fit(&mut self.goal, &self.grid, &options, &mut on_iteration)
+                    fit::detail::fit(&mut self.goal, &self.grid, &options, &mut on_iteration)
                         .map_err(thin)?;
                 (fitted.shape, fitted.report)
             }
             (Method::Iterative, _) => {
                 let mut on_iteration = on_iteration;
                 let fitted = fit::fit(&self.goal, &options, &mut on_iteration).map_err(thin)?;
-                if fit::levels::stalled(&fitted.report, &self.grid, &options) {
+                if fit::detail::stalled(&fitted.report, &self.grid, &options) {
                     // Detail levels go on where the paper's loop stalled: the better of the two.
-                    let levelled = fit::levels::after_stall(&options);
+                    let levelled = fit::detail::after_stall(&options);
                     self.goal = with_mesh_points(self.goal, self.mesh, &self.grid, options.seed);
                     self.levels_estimate().check(self.limit, || None)?;
                     let again =
-                        fit::levels::fit(&mut self.goal, &self.grid, &levelled, &mut on_iteration)
+                        fit::detail::fit(&mut self.goal, &self.grid, &levelled, &mut on_iteration)
                             .map_err(thin)?;
                     let measure = options.error_measure;
                     if again.report.error_by(measure) < fitted.report.error_by(measure) {
@@ -1122,11 +1122,11 @@ impl<'a> Prepared<'a> {
         let model = Model::from_shape(shape, self.bounds, Some(grid));
         let surface = crate::polygonize::polygonize_field(&model, &grid);
         report.mesh_distance = match &thickened {
-            None => surface_distance::between(&self.query, &surface, grid.voxel_size, options.seed),
+            None => metrics::surface::between(&self.query, &surface, grid.voxel_size, options.seed),
             Some(thickened) => {
-                let query = MeshDistance::new(thickened)
-                    .map_err(|e| e.in_context("the thickened surface"))?;
-                surface_distance::between(&query, &surface, grid.voxel_size, options.seed)
+                let query =
+                    MeshQuery::new(thickened).map_err(|e| e.in_context("the thickened surface"))?;
+                metrics::surface::between(&query, &surface, grid.voxel_size, options.seed)
             }
         }
         .map_err(|e| e.in_context("the model's polygonized surface"))?;
@@ -1165,7 +1165,7 @@ impl<'a> Prepared<'a> {
 fn with_mesh_points(goal: Goal, mesh: &Mesh, grid: &Grid, seed: u64) -> Goal {
     let scale = goal.grid().voxel_size / grid.voxel_size;
     let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
-    match surface_distance::sample(mesh, n, seed) {
+    match metrics::surface::sample(mesh, n, seed) {
         Some(points) => goal.with_mesh_points(points, fit::MESH_AGREEMENT * scale as f32),
         None => goal,
     }
@@ -1235,8 +1235,8 @@ pub fn above_target(report: &FitReport) -> Option<String> {
 }
 
 /// A warning (one line, no file name) when more than
-/// [`surface_distance::INTERIOR_NOTABLE`] of the mesh's surface lies inside its own solid
-/// ([`surface_distance::interior`]): faces no solid's surface holds, which the model leaves
+/// [`metrics::surface::INTERIOR_NOTABLE`] of the mesh's surface lies inside its own solid
+/// ([`metrics::surface::interior`]): faces no solid's surface holds, which the model leaves
 /// out; with how close the rest of the mesh is to the model.
 pub fn interior_surface(report: &FitReport) -> Option<String> {
     let d = report.mesh_distance?;

@@ -14,9 +14,9 @@
 //!   diagonal of the mesh's bounding box in each coordinate.
 //! * **Uniform:** in the mesh's bounding box grown on every side by 10% of its size along that
 //!   axis ([`PADDING`]).
-//! * **Distance:** exact, to the triangles ([`crate::mesh_distance`]), f64 in the mesh's units,
+//! * **Distance:** exact, to the triangles ([`crate::mesh_query`]), f64 in the mesh's units,
 //!   positive inside as the voxelizer decides it (rays along the three axes, the generalized
-//!   winding number where they disagree), as [`MeshDistance::signed`] gives it.
+//!   winding number where they disagree), as [`MeshQuery::signed`] gives it.
 //! * **Deterministic:** the same mesh, `n` and options give the same samples bit for bit, on
 //!   any number of threads: each block of [`BLOCK`] points draws from its own ChaCha8 stream
 //!   of the seed.
@@ -40,7 +40,7 @@ use crate::geometry::{Aabb, DVec3};
 use crate::memory::MemoryLimit;
 use crate::mesh::Mesh;
 use crate::mesh::area::ByArea;
-use crate::mesh_distance::MeshDistance;
+use crate::mesh_query::MeshQuery;
 
 /// What sampling a mesh's signed distance ([`crate::pipeline::sample`]) needs besides the mesh and the number
 /// of points (see the [module doc](self) for how the points are drawn).
@@ -150,7 +150,7 @@ pub fn padded(bounds: &Aabb) -> Aabb {
 /// Near points asked of a mesh whose triangles have no area; `source` names it.
 pub(crate) fn sample(
     mesh: &Mesh,
-    query: &MeshDistance,
+    query: &MeshQuery,
     source: &str,
     n: usize,
     options: &SampleOptions,

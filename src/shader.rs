@@ -36,7 +36,7 @@
 //! offset written into its loop. The sampler is the uniform `implicitize_centres`.
 //!
 //! ## Detail levels
-//! A model with detail levels ([`crate::levels`]) is level 0's function plus one function per
+//! A model with detail levels ([`crate::rbf::MultiScale`]) is level 0's function plus one function per
 //! level, evaluated in level 0's normalized coordinates. A level is never read by looping over
 //! its centres: its [`DetailLevel::grid_index`] (a dense uniform grid over its supports, at most
 //! [`CONSTANT_INDEX_CELLS`] cells in the source, [`TEXTURE_INDEX_CELLS`] in the texture, each
@@ -50,8 +50,8 @@ use std::collections::BTreeSet;
 use std::fmt::Write as _;
 
 use crate::error::{Error, Result};
-use crate::levels::MultiScale;
 use crate::model::Model;
+use crate::rbf::MultiScale;
 use crate::rbf::{DetailLevel, Implicit, Kernel, Normalization};
 use crate::shape::Shape;
 use crate::shape::csg::{Composite, Operation};

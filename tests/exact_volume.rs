@@ -6,7 +6,7 @@
 use implicitize::grid::Volume;
 use implicitize::memory::{Estimate, MemoryLimit};
 use implicitize::mesh::Mesh;
-use implicitize::mesh_distance::MeshDistance;
+use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, VolumeKind, VolumeOptions};
 use implicitize::{DVec3, Error, Resolution};
 use implicitize_test_support::hostile::{cube, open_box};
@@ -36,7 +36,7 @@ fn torus_and_ball() -> Mesh {
 fn every_voxel_is_the_brute_force_distance_rounded_to_f32() {
     let mesh = torus_and_ball();
     let sd = exact(&mesh, 28, None);
-    let query = MeshDistance::new(&mesh).unwrap();
+    let query = MeshQuery::new(&mesh).unwrap();
     for (index, &value) in sd.data.iter().enumerate() {
         let p = sd.grid.position(sd.grid.voxel(index));
         let brute = (0..mesh.triangles.len())
@@ -146,7 +146,7 @@ fn bad_bands_and_a_small_memory_limit_are_refused() {
     let triangles = mesh.triangles.len();
     let grid = pipeline::grid_around(&mesh, Resolution::LongestAxis(200), "ring.obj").unwrap();
     let need = Estimate::exact_volume(grid.dims, triangles);
-    let query_bytes = (triangles * implicitize::mesh_distance::BYTES_PER_TRIANGLE) as u64;
+    let query_bytes = (triangles * implicitize::mesh_query::BYTES_PER_TRIANGLE) as u64;
     assert_eq!(need.bytes, Estimate::volume(grid.dims, triangles).bytes + query_bytes);
     let mut small = options(200, None);
     small.memory_limit = MemoryLimit::Bytes(need.bytes - 1);
@@ -166,7 +166,7 @@ fn degenerate_and_duplicated_triangles_give_the_querys_own_distances() {
         DVec3::new(0.55, 0.5 + 1e-9, 1.3),
     ]);
     mesh.triangles.push([n, n + 1, n + 2]);
-    let query = MeshDistance::new(&mesh).unwrap();
+    let query = MeshQuery::new(&mesh).unwrap();
     for band in [None, Some(2.0)] {
         let sd = exact(&mesh, 24, band);
         let limit = band.map_or(f64::INFINITY, |k| k * sd.grid.voxel_size);

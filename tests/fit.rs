@@ -296,7 +296,7 @@ fn points_where_the_densities_saturate_project_onto_the_surface() {
     let goal = Goal::from_density(density, &FitOptions::default().regularity);
     let (mut lost, mut far, mut total) = (0, 0, 0);
     for &s in goal.surface().iter().step_by(7) {
-        let normal = implicitize::distance::gradient(goal.sd(), s).normalize_or_zero();
+        let normal = implicitize::edt::gradient(goal.sd(), s).normalize_or_zero();
         if normal == DVec3::ZERO || goal.sub_voxel().signed_distance(s).abs() > 0.1 {
             continue;
         }

@@ -5,9 +5,9 @@
 use std::sync::OnceLock;
 
 use implicitize::fit::{FitOptions, LevelsStop, Termination};
-use implicitize::levels::MultiScale;
 use implicitize::morph::{self, Morph, MorphOptions};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions};
+use implicitize::rbf::MultiScale;
 use implicitize::shader::{self, Language};
 use implicitize::shape::Shape;
 use implicitize::{Field, Mesh, Model, Resolution, polygonize};

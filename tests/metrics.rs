@@ -2,7 +2,7 @@
 //! known without the code under test: shapes voxelized here from their equations, distances
 //! measured by brute force over the voxel centres, and what the geometry says.
 
-use implicitize::distance::{boundary_voxels, inside, signed_distance};
+use implicitize::edt::{boundary_voxels, inside, signed_distance};
 use implicitize::metrics::{
     BoundaryErrors, ErrorMetrics, RegularityOptions, SubVoxel, radii_of_regularity,
 };

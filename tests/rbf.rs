@@ -507,7 +507,7 @@ fn csv_files_name_the_file_and_line_of_an_error() {
 /// slope margin at 1 instead of 2, one distance in a thousand is off by 0.02 to 0.7 voxels.)
 #[test]
 fn grid_evaluation_is_exact_where_the_fit_reads_it() {
-    use implicitize::distance::{boundary_voxels, signed_distance};
+    use implicitize::edt::{boundary_voxels, signed_distance};
     use implicitize::metrics::SubVoxel;
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     let (_, constraints) = read_constraints(&data.join("bunny_constraints.csv")).unwrap();

@@ -2,7 +2,7 @@
 //! points, the uniform box, signs, DeepSDF's layout, determinism and refusals.
 
 use implicitize::memory::MemoryLimit;
-use implicitize::mesh_distance::MeshDistance;
+use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, SampleOptions};
 use implicitize::sample::{self, Samples};
 use implicitize::{DVec3, Error, Mesh};
@@ -152,7 +152,7 @@ fn the_signs_are_the_distance_querys() {
     let open = open_box(DVec3::ZERO, DVec3::new(1.0, 2.0, 1.5), |f| f != 0);
     for mesh in [cube(DVec3::splat(-1.0), 2.0), open] {
         let samples = draw(&mesh, 5000, &SampleOptions::default());
-        let query = MeshDistance::new(&mesh).unwrap();
+        let query = MeshQuery::new(&mesh).unwrap();
         assert_eq!(samples.sdf, query.signed(&samples.points));
         let inside = samples.sdf.iter().filter(|&&s| s > 0.0).count();
         assert!(inside > 1000 && inside < 4000, "{inside} inside");

@@ -6,7 +6,7 @@
 use implicitize::error::FrontEnd;
 use implicitize::field::Field;
 use implicitize::fit::Thickness;
-use implicitize::mesh_distance::MeshDistance;
+use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, MeshFitOptions, MeshSource, Prepared};
 use implicitize::voxelize::shell::Shell;
 use implicitize::{DVec3, Error, Mesh, Resolution};
@@ -158,7 +158,7 @@ fn a_shell_goal_is_the_thickened_surface() {
     let h = prepared.grid().voxel_size;
     let thickened = implicitize::polygonize(prepared.goal().density(), 0.5);
     assert!(thickened.vertices.len() > 1000, "{} vertices", thickened.vertices.len());
-    let query = MeshDistance::new(&hemisphere).unwrap();
+    let query = MeshQuery::new(&hemisphere).unwrap();
     let worst = thickened
         .vertices
         .iter()

@@ -3,7 +3,7 @@
 
 use std::collections::HashMap;
 
-use implicitize::distance::inside;
+use implicitize::edt::inside;
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
 use implicitize::{DVec3, Grid, Mesh, Resolution, Volume};
 use implicitize_test_support::data::triceratops;
@@ -257,7 +257,7 @@ fn the_triceratops_with_holes_and_flipped_faces_keeps_its_solid() {
     let (mesh, _) = implicitize::mesh::read(triceratops()).unwrap();
     let grid = grid_for(&mesh, 96);
     let intact = solid(&mesh, &grid);
-    let sd = implicitize::distance::signed_distance(&intact);
+    let sd = implicitize::edt::signed_distance(&intact);
     let broken = solid(&damaged(&mesh, 701), &grid);
     let far: Vec<usize> = (0..grid.len()).filter(|&i| sd.data[i].abs() > 1.0).collect();
     assert!(far.len() > grid.len() / 2);
@@ -287,7 +287,7 @@ fn bad_input_is_an_error_not_a_panic() {
 
 #[test]
 fn surface_points_of_a_voxelized_sphere_lie_on_it() {
-    use implicitize::distance::{boundary_voxels, signed_distance, surface_point};
+    use implicitize::edt::{boundary_voxels, signed_distance, surface_point};
     let (c, r) = (DVec3::new(-4.0, 7.0, 1.0), 3.0);
     let mesh = sphere(c, r, 5);
     let grid = grid_for(&mesh, 48);

@@ -7,10 +7,10 @@ use std::sync::Arc;
 use rayon::prelude::*;
 
 use super::surface::{self, SurfaceDisks};
-use crate::distance;
+use crate::edt;
 use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
-use crate::mesh_distance::MeshDistance;
+use crate::mesh_query::MeshQuery;
 use crate::metrics::{self, AGREEMENT, RegularityOptions, SubVoxel};
 
 /// Everything the fit needs to know about the goal shape, computed once.
@@ -35,7 +35,7 @@ pub struct Goal {
     pub(super) disks: SurfaceDisks,
     /// The mesh the densities were voxelized from, for [`Goal::fine_signed_distance`] to
     /// measure its exact distance (see [`Goal::with_mesh`]).
-    mesh: Option<Arc<MeshDistance>>,
+    mesh: Option<Arc<MeshQuery>>,
     /// Points on the mesh's triangles where the goal agrees with it, mesh units (see
     /// [`Goal::with_mesh_points`]).
     mesh_points: Option<Vec<DVec3>>,
@@ -49,38 +49,38 @@ pub const MESH_AGREEMENT: f32 = 1.0;
 impl Goal {
     /// The goal of a density volume (from [`crate::voxelize::voxelize`], or an image in 2D).
     pub fn from_density(density: Volume<f32>, regularity: &RegularityOptions) -> Goal {
-        let sd = distance::signed_distance(&distance::inside(&density));
+        let sd = edt::signed_distance(&edt::inside(&density));
         Goal::from_signed_distance(density, sd, regularity)
     }
 
     /// The goal of a density volume whose signed distance `sd` is already known (that of
-    /// [`distance::inside`] of the densities, as [`Goal::from_density`] computes it).
+    /// [`edt::inside`] of the densities, as [`Goal::from_density`] computes it).
     pub fn from_signed_distance(
         density: Volume<f32>,
         sd: Volume<f32>,
         regularity: &RegularityOptions,
     ) -> Goal {
-        let boundary = distance::boundary_voxels(&sd);
+        let boundary = edt::boundary_voxels(&sd);
         let rreg = metrics::radii_of_regularity(&sd, &boundary, regularity);
         let surface: Vec<DVec3> =
-            boundary.par_iter().map(|&v| distance::surface_point(&density, v)).collect();
+            boundary.par_iter().map(|&v| edt::surface_point(&density, v)).collect();
         let disks = SurfaceDisks::new(&surface, &density);
         Goal { density, sd, boundary, rreg, surface, disks, mesh: None, mesh_points: None }
     }
 
     /// This goal, with [`Goal::fine_signed_distance`] measuring the exact distance to `mesh`,
     /// the mesh its densities were voxelized from (at the same place: the grid's mesh units).
-    pub fn with_mesh(self, mesh: Arc<MeshDistance>) -> Goal {
+    pub fn with_mesh(self, mesh: Arc<MeshQuery>) -> Goal {
         Goal { mesh: Some(mesh), ..self }
     }
 
     /// This goal, with `points` sampled on the mesh it was voxelized from (mesh units) kept
     /// where the goal's surface is within `agreement` of its voxels of them: where the goal and
-    /// the mesh agree, the detail levels fit the mesh itself (see `fit/levels.rs`), not the
+    /// the mesh agree, the detail levels fit the mesh itself (see `fit/detail.rs`), not the
     /// staircase of its voxelization; faces the voxelization buried or filled are left out.
     ///
     /// On the grid asked for the agreement is one voxel (`MESH_AGREEMENT`); a goal at half the
-    /// resolution (`fit::levels::goal_grid`) takes two of its own voxels, as it misses relief
+    /// resolution (`fit::detail::goal_grid`) takes two of its own voxels, as it misses relief
     /// that the grid resolves by up to a voxel of its own more: the horse with relief at 1024
     /// (bumps 3 voxels high) lay 3.06 voxels from the mesh at worst with one voxel of its goal,
     /// 1.70 with two.
@@ -100,7 +100,7 @@ impl Goal {
     }
 
     /// The mesh's distance query given by [`Goal::with_mesh`], if any.
-    pub fn mesh(&self) -> Option<&Arc<MeshDistance>> {
+    pub fn mesh(&self) -> Option<&Arc<MeshQuery>> {
         self.mesh.as_ref()
     }
 
@@ -173,7 +173,7 @@ impl Goal {
     /// [`Goal::fine_signed_distance`] from the voxelization alone: its disks and voxel-centre
     /// distance.
     fn voxelized_signed_distance(&self, p: DVec3) -> f32 {
-        let coarse = distance::sample(&self.sd, p);
+        let coarse = edt::sample(&self.sd, p);
         if coarse.abs() > surface::REACH {
             return coarse;
         }
@@ -218,9 +218,9 @@ impl Goal {
             if step == PROJECTION_STEPS {
                 break;
             }
-            let mut direction = distance::gradient(&self.density, q);
+            let mut direction = edt::gradient(&self.density, q);
             if step == 0 || direction.length() < 1e-3 {
-                direction = distance::gradient(&self.sd, q);
+                direction = edt::gradient(&self.sd, q);
             }
             if direction.length() < 1e-6 {
                 break;
@@ -235,7 +235,7 @@ impl Goal {
     /// cross 1/2, by bisection; `None` if it is not within [`PROJECTION_TOLERANCE`] of the
     /// surface by the sub-voxel signed distance.
     fn bisect_crossing(&self, a: DVec3, b: DVec3) -> Option<DVec3> {
-        let excess = |q: DVec3| f64::from(distance::sample(&self.density, q)) - 0.5;
+        let excess = |q: DVec3| f64::from(edt::sample(&self.density, q)) - 0.5;
         let (mut inside, mut outside) = if excess(a) > 0.0 { (a, b) } else { (b, a) };
         if excess(inside) <= 0.0 || excess(outside) > 0.0 {
             return None;

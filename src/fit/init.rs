@@ -17,7 +17,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use super::{FitConstraint, FitOptions};
-use crate::distance;
+use crate::edt;
 use crate::error::{Error, Result};
 use crate::geometry::DVec3;
 use crate::grid::Volume;
@@ -38,7 +38,7 @@ pub fn initial_constraints(goal: &Goal, options: &FitOptions) -> Result<Vec<FitC
     let mut constraints = boundary.clone();
     for c in &boundary {
         let end = longer_extremum_path(&goal.sd, c.position);
-        let value = f64::from(distance::sample(&goal.sd, end));
+        let value = f64::from(edt::sample(&goal.sd, end));
         let far_enough =
             constraints.iter().all(|o| o.position.distance(end) >= options.min_constraint_spacing);
         if far_enough && value != 0.0 {
@@ -126,16 +126,16 @@ fn follow_gradient(sd: &Volume<f32>, start: DVec3, direction: f64) -> (DVec3, f6
     let upper = DVec3::new(dims[0] as f64 - 1.0, dims[1] as f64 - 1.0, dims[2] as f64 - 1.0);
     let max_steps = (upper.length() / STEP) as usize * 2;
     let mut p = start;
-    let mut level = direction * f64::from(distance::sample(sd, p));
+    let mut level = direction * f64::from(edt::sample(sd, p));
     let mut length = 0.0;
     for _ in 0..max_steps {
-        let g = distance::gradient(sd, p) * direction;
+        let g = edt::gradient(sd, p) * direction;
         let norm = g.length();
         if norm < 1e-6 {
             break;
         }
         let next = (p + g * (STEP / norm)).clamp(DVec3::ZERO, upper);
-        let next_level = direction * f64::from(distance::sample(sd, next));
+        let next_level = direction * f64::from(edt::sample(sd, next));
         if next_level <= level || next == p {
             break;
         }

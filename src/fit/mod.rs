@@ -20,9 +20,9 @@
 
 mod coarse;
 mod compact;
+pub mod detail;
 mod goal;
 mod init;
-pub mod levels;
 pub mod naive;
 mod refine;
 mod report;
@@ -33,7 +33,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::distance;
+use crate::edt;
 use crate::error::Result;
 use crate::field::Field;
 use crate::geometry::DVec3;
@@ -42,9 +42,9 @@ use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions, SubV
 use crate::rbf::{self, Implicit, Kernel};
 
 pub use compact::Precision;
+pub use detail::{LevelOptions, LevelledFit};
 pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
-pub use levels::{LevelOptions, LevelledFit};
 pub use report::{
     BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, LevelReport,
     LevelsReport, LevelsStop, StalledLoop, TargetOutcome, Termination, Timings,
@@ -141,7 +141,7 @@ pub struct FitOptions {
     pub kernel: Kernel,
     /// How radii of regularity are measured.
     pub regularity: RegularityOptions,
-    /// Detail levels over the fit on large grids (see `levels.rs`).
+    /// Detail levels over the fit on large grids (see [`detail`]).
     pub levels: LevelOptions,
     /// How finely the fit stores its functions (see `compact.rs`).
     pub precision: compact::Precision,
@@ -546,7 +546,7 @@ fn measure_values(
     timings.signed_distance += clock.elapsed().as_secs_f64();
 
     let clock = Instant::now();
-    let current_boundary = distance::boundary_voxels(&sd_current);
+    let current_boundary = edt::boundary_voxels(&sd_current);
     let current_fine = SubVoxel { values, level: 0.0, sd: &sd_current, reach: 2.0 };
     let current_points = current_boundary
         .par_iter()
@@ -671,13 +671,13 @@ fn current_signed_distance(
     let band = (regularity.max_radius + regularity.tolerance.max(0.0) + 6.0) as f32;
     // In the first iterations the check below usually fails and this band is thrown away: a
     // fraction of the cost of the whole transform, on grids where iterations are cheap.
-    let banded = distance::signed_distance_within(&inside, band);
+    let banded = edt::signed_distance_within(&inside, band);
     let reach = band - 0.5 - 4.0;
     if goal.boundary.par_iter().all(|&v| banded.get(v).abs() < reach) {
         banded
     } else {
         drop(banded);
-        distance::signed_distance(&inside)
+        edt::signed_distance(&inside)
     }
 }
 

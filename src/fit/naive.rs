@@ -14,7 +14,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use super::{FitConstraint, FitOptions, FitReport, Goal, IterationReport, Termination, Timings};
-use crate::distance;
+use crate::edt;
 use crate::error::Result;
 use crate::geometry::DVec3;
 use crate::mesh::Mesh;
@@ -99,11 +99,7 @@ fn naive_constraints(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Vec<FitC
 fn outward_offset(goal: &Goal, position: DVec3, normal: DVec3) -> DVec3 {
     let along = position + normal * NORMAL_OFFSET;
     let against = position - normal * NORMAL_OFFSET;
-    if distance::sample(&goal.sd, against) < distance::sample(&goal.sd, along) {
-        against
-    } else {
-        along
-    }
+    if edt::sample(&goal.sd, against) < edt::sample(&goal.sd, along) { against } else { along }
 }
 
 /// Area-weighted unit vertex normals (zero for a vertex no triangle uses).

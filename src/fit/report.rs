@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use crate::metrics::ErrorMetrics;
-use crate::surface_distance::MeshDistances;
+use crate::metrics::surface::MeshDistances;
 
 /// Constraint counts by kind, as in the paper's Table 1.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -298,7 +298,7 @@ pub struct FitReport {
     /// ([`crate::voxelize::Ambiguity`]); `None` for a goal given as densities.
     pub winding_near_half: Option<f64>,
     /// How thick the goal's solid is (see [`super::Thickness`]), in voxels of the fit's grid
-    /// (measured on the goal's, which may be coarser: [`super::levels::goal_grid`]); `None` for
+    /// (measured on the goal's, which may be coarser: [`super::detail::goal_grid`]); `None` for
     /// a goal given as densities.
     pub thickness: Option<super::Thickness>,
     /// For a fit of a mesh's surface thickened into a shell (`shell`), its thickness in all,
@@ -306,12 +306,12 @@ pub struct FitReport {
     /// thickened surface (polygonized from the goal's densities).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shell_voxels: Option<f64>,
-    /// A multi-scale fit's level 0 and detail levels (see `fit/levels.rs`); absent otherwise.
+    /// A multi-scale fit's level 0 and detail levels (see `fit/detail.rs`); absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub levels: Option<LevelsReport>,
     /// For a mesh's fit, the model's polygonized surface (the one `--mesh-out` writes)
     /// measured against the mesh both ways with exact distances, in voxels
-    /// ([`crate::surface_distance`]); `None` for a goal given as densities, or where either
+    /// ([`crate::metrics::surface`]); `None` for a goal given as densities, or where either
     /// surface has no area.
     pub mesh_distance: Option<MeshDistances>,
     /// For a fit under a byte budget (`max_bytes`), what was chosen and what was tried; absent
@@ -323,7 +323,7 @@ pub struct FitReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target: Option<TargetOutcome>,
     /// For a fit of the paper's loop that stalled above its target on a grid without detail
-    /// levels, and was fitted again with them (see [`super::levels::stalled`]): how that first
+    /// levels, and was fitted again with them (see [`super::detail::stalled`]): how that first
     /// fit ended; absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stalled_loop: Option<StalledLoop>,

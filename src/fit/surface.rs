@@ -21,7 +21,7 @@ use std::hash::BuildHasherDefault;
 
 use rayon::prelude::*;
 
-use crate::distance;
+use crate::edt;
 use crate::geometry::DVec3;
 use crate::grid::Volume;
 use crate::polygonize::IndexHasher;
@@ -52,7 +52,7 @@ impl SurfaceDisks {
     pub fn new(points: &[DVec3], density: &Volume<f32>) -> SurfaceDisks {
         let normals = points
             .par_iter()
-            .map(|&p| distance::gradient(density, p).try_normalize().unwrap_or(DVec3::ZERO))
+            .map(|&p| edt::gradient(density, p).try_normalize().unwrap_or(DVec3::ZERO))
             .collect();
         let mut cells: HashMap<u64, Vec<u32>, BuildHasherDefault<IndexHasher>> = HashMap::default();
         for (i, &p) in points.iter().enumerate() {

@@ -31,7 +31,7 @@ use crate::error::Error;
 use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
 use crate::mesh::Mesh;
-use crate::mesh_distance::MeshDistance;
+use crate::mesh_query::MeshQuery;
 
 /// How thick a goal's solid is, in voxels of its grid (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -88,14 +88,14 @@ impl Thickness {
     /// Measures the thickness of the solid whose signed distance (voxels, inside positive) is
     /// `sd` (a goal's, `Goal::sd`) against `mesh`, the mesh it was voxelized from, with its
     /// distance query `query`; `seed` draws the surface points.
-    pub fn measure(sd: &Volume<f32>, mesh: &Mesh, query: &MeshDistance, seed: u64) -> Thickness {
+    pub fn measure(sd: &Volume<f32>, mesh: &Mesh, query: &MeshQuery, seed: u64) -> Thickness {
         let grid = sd.grid;
         let mut depths = medial_depths(sd, query);
         depths.sort_by(f64::total_cmp);
         let max_depth = depths.last().copied().unwrap_or(0.0);
         let low_depth = depths.get(depths.len() / 10).copied().unwrap_or(0.0);
         let points =
-            crate::surface_distance::sample(mesh, SURFACE_POINTS, seed).unwrap_or_default();
+            crate::metrics::surface::sample(mesh, SURFACE_POINTS, seed).unwrap_or_default();
         let drawn = points.len().max(1);
         let thin: Vec<DVec3> =
             points.into_par_iter().filter(|&p| !has_deep_voxel(sd, grid.to_grid(p))).collect();
@@ -107,7 +107,7 @@ impl Thickness {
     }
 
     /// These figures in voxels `scale` times smaller: a goal's on the grid asked for, where
-    /// the goal's voxels are `scale` of that grid's ([`crate::fit::levels::goal_grid`]).
+    /// the goal's voxels are `scale` of that grid's ([`crate::fit::detail::goal_grid`]).
     pub fn in_smaller_voxels(self, scale: f64) -> Thickness {
         Thickness {
             max_depth: self.max_depth * scale,
@@ -195,7 +195,7 @@ fn has_deep_voxel(sd: &Volume<f32>, p: DVec3) -> bool {
 
 /// The exact inside distance (voxels) at the goal's medial voxels, at most [`MEDIAL_POINTS`]
 /// of them.
-fn medial_depths(sd: &Volume<f32>, query: &MeshDistance) -> Vec<f64> {
+fn medial_depths(sd: &Volume<f32>, query: &MeshQuery) -> Vec<f64> {
     let grid = sd.grid;
     let medial: Vec<usize> =
         (0..grid.len()).into_par_iter().filter(|&n| is_medial(sd, n)).collect();
@@ -219,7 +219,7 @@ fn is_medial(sd: &Volume<f32>, n: usize) -> bool {
 
 /// The thickness (voxels) of the wall at each of `points`, up to [`PROBE`] (see the module
 /// doc).
-fn walls(mesh: &Mesh, query: &MeshDistance, grid: &Grid, points: &[DVec3]) -> Vec<f64> {
+fn walls(mesh: &Mesh, query: &MeshQuery, grid: &Grid, points: &[DVec3]) -> Vec<f64> {
     let h = PROBE * grid.voxel_size;
     let nearest = query.nearest_all(points);
     let probes: Vec<DVec3> = points

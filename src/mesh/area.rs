@@ -1,6 +1,6 @@
 //! Points drawn on a mesh's surface uniformly by area: a triangle chosen with probability
 //! proportional to its area, a point uniform on it. The signed-distance samples
-//! ([`crate::sample`]) and the surface metrics ([`crate::surface_distance`]) draw their
+//! ([`crate::sample`]) and the surface metrics ([`crate::metrics::surface`]) draw their
 //! points here, in blocks of [`BLOCK`] points each drawn from its own random stream, so the
 //! points do not depend on the number of threads.
 

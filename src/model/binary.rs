@@ -30,7 +30,7 @@ use std::path::Path;
 use crate::error::{Error, Result};
 use crate::geometry::{Aabb, DVec3, MORTON_BITS};
 use crate::grid::Grid;
-use crate::levels::MultiScale;
+use crate::rbf::MultiScale;
 use crate::rbf::{self, Constraint, DetailLevel, Implicit, Kernel, Lattice, Normalization};
 use crate::shape::Shape;
 use crate::shape::csg::{Child, Composite, Operation};

@@ -46,7 +46,7 @@
 //!   }
 //! ```
 //!
-//! A shape with detail levels (version 2, [`crate::levels`]) holds its level 0, an `rbf`
+//! A shape with detail levels (version 2, [`crate::rbf::MultiScale`]) holds its level 0, an `rbf`
 //! shape as above, and its levels, coarsest first:
 //!
 //! ```text
@@ -90,7 +90,7 @@ use crate::error::{Error, Location, Result};
 use crate::field::Field;
 use crate::geometry::{Aabb, DVec3};
 use crate::grid::Grid;
-use crate::levels::MultiScale;
+use crate::rbf::MultiScale;
 use crate::rbf::{
     Constraint, ConstraintKind, DetailLevel, Implicit, Kernel, Lattice, Normalization,
 };

@@ -1,7 +1,7 @@
 //! Compactly supported radial basis functions: Wendland's C2 function, a uniform grid index of
 //! the supports, local evaluation and the sparse interpolation solve of one detail level.
 //!
-//! A detail level (see [`crate::levels`]) is `g(x) = sum_j w_j psi_rho(|x - c_j|)` with
+//! A detail level (see [`crate::rbf::MultiScale`]) is `g(x) = sum_j w_j psi_rho(|x - c_j|)` with
 //!
 //! ```text
 //! psi_rho(r) = (1 - r/rho)^4 (4 r/rho + 1)   for r < rho,   0 beyond,

@@ -83,6 +83,7 @@ mod isa;
 mod iterative;
 mod kernel;
 mod lattice;
+mod multiscale;
 mod schwarz;
 mod solve;
 mod treecode;
@@ -100,6 +101,7 @@ pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};
 pub use kernel::Kernel;
 pub use lattice::Lattice;
 pub(crate) use lattice::{extent as lattice_extent, morton_order as lattice_order};
+pub use multiscale::MultiScale;
 pub use solve::{DIRECT_MAX, MAX_RESIDUAL, MIN_SEPARATION};
 
 /// What a constraint asks of the surface, read from the sign of its value (paper 3.1).

@@ -10,8 +10,8 @@ pub mod csg;
 
 use crate::field::Field;
 use crate::geometry::DVec3;
-use crate::levels::MultiScale;
 use crate::rbf::Implicit;
+use crate::rbf::MultiScale;
 use csg::Composite;
 
 /// The shape a model describes.
@@ -22,7 +22,7 @@ pub enum Shape {
     Rbf(Implicit),
     /// A CSG tree of shapes (see [`csg`]).
     Csg(Composite),
-    /// A variational implicit function with detail levels over it (see [`crate::levels`]).
+    /// A variational implicit function with detail levels over it (see [`crate::rbf::MultiScale`]).
     Levels(MultiScale),
 }
 

@@ -23,7 +23,7 @@
 use implicitize::fit::Goal;
 use implicitize::rbf::{self, Implicit};
 use implicitize::render::Image;
-use implicitize::{DVec3, Error, Field, Grid, Result, Volume, distance};
+use implicitize::{DVec3, Error, Field, Grid, Result, Volume, edt};
 
 /// The width of the grey bands between and around panels, in picture pixels.
 pub const GAP: usize = 6;
@@ -89,7 +89,7 @@ pub fn draw(goal: &Goal, snapshots: &Snapshots, scale: usize) -> Result<Image> {
     let inside = |values: &[f64]| values.iter().map(|&v| v > 0.0).collect::<Vec<bool>>();
     let early = inside(&panel.values(snapshots.early));
     let goal_inside: Vec<bool> =
-        panel.grid_points().iter().map(|&g| distance::sample(goal.density(), g) > 0.5).collect();
+        panel.grid_points().iter().map(|&g| edt::sample(goal.density(), g) > 0.5).collect();
     let early_sd = current_signed_distance(snapshots.early, goal);
     let range = Range::of(goal.sd()).union(Range::of(&early_sd));
 
@@ -120,7 +120,7 @@ pub fn draw(goal: &Goal, snapshots: &Snapshots, scale: usize) -> Result<Image> {
 fn current_signed_distance(implicit: &Implicit, goal: &Goal) -> Volume<f32> {
     let values = rbf::evaluate_on_grid(implicit, goal.grid(), Some(goal.sd()));
     let inside = Volume { grid: values.grid, data: values.data.iter().map(|&v| v > 0.0).collect() };
-    distance::signed_distance(&inside)
+    edt::signed_distance(&inside)
 }
 
 /// The largest positive value and the largest magnitude of a negative one (at least 1 each):
@@ -201,11 +201,8 @@ impl Panel {
 
     /// A signed distance, red positive and blue negative, darker further from 0 up to `range`.
     fn signed_distance(&self, sd: &Volume<f32>, range: Range) -> Image {
-        let rgba = self
-            .grid_points()
-            .iter()
-            .flat_map(|&g| diverging(distance::sample(sd, g), range))
-            .collect();
+        let rgba =
+            self.grid_points().iter().flat_map(|&g| diverging(edt::sample(sd, g), range)).collect();
         Image { width: self.width, height: self.height, rgba }
     }
 

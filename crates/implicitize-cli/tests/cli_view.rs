@@ -8,9 +8,9 @@ use std::process::{Command, Output};
 
 use implicitize::DVec3;
 use implicitize::csg::{Child, Composite, Operation};
-use implicitize::levels::MultiScale;
 use implicitize::model::Model;
 use implicitize::rbf::DetailLevel;
+use implicitize::rbf::MultiScale;
 use implicitize_test_support::models::{ball, disc_2d, sphere_directions};
 use implicitize_test_support::wgsl;
 

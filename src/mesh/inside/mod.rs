@@ -1,6 +1,6 @@
 //! Inside or outside a triangle mesh, decided the one way the whole crate decides it: by the
 //! voxelizer for its densities ([`crate::voxelize`], paper 4.1) and by the exact distance for
-//! its sign ([`crate::mesh_distance`]).
+//! its sign ([`crate::mesh_query`]).
 //!
 //! The mesh is first re-oriented consistently ([`orient`]). Grids of parallel rays along the
 //! three axes ([`rays`]) each vote at a point: a ray whose crossings balance by the nonzero

@@ -3,7 +3,7 @@
 //! closest point against its triangle and barycentric coordinates; the sign; bad meshes.
 
 use implicitize::mesh::Mesh;
-use implicitize::mesh_distance::{MeshDistance, Nearest};
+use implicitize::mesh_query::{MeshQuery, Nearest};
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
 use implicitize::{Aabb, DVec3, Grid, Resolution};
 use implicitize_test_support::hostile::open_box;
@@ -65,7 +65,7 @@ fn check(mesh: &Mesh, p: DVec3, found: &Nearest) {
 #[test]
 fn a_torus_matches_brute_force_near_and_far() {
     let mesh = torus(1.0, 0.3, 48, 24);
-    let distance = MeshDistance::new(&mesh).unwrap();
+    let distance = MeshQuery::new(&mesh).unwrap();
     let bounds = mesh.bounds().unwrap();
     let mut points = random_points(&bounds, 0.1, 2000, 1);
     points.extend(random_points(&bounds, 50.0, 500, 2));
@@ -88,7 +88,7 @@ fn a_torus_matches_brute_force_near_and_far() {
 #[test]
 fn vertices_and_edges_are_at_distance_zero() {
     let mesh = sphere(DVec3::new(3.0, -2.0, 1.0), 2.0, 12, 24);
-    let distance = MeshDistance::new(&mesh).unwrap();
+    let distance = MeshQuery::new(&mesh).unwrap();
     for t in 0..mesh.triangles.len() {
         let [a, b, c] = mesh.corners(t);
         for p in [a, b, c, (a + b) * 0.5, (b + c) * 0.5, a * 0.25 + c * 0.75, (a + b + c) / 3.0] {
@@ -109,7 +109,7 @@ fn a_single_triangle_has_every_region_right() {
         ],
         triangles: vec![[0, 1, 2]],
     };
-    let distance = MeshDistance::new(&mesh).unwrap();
+    let distance = MeshQuery::new(&mesh).unwrap();
     let cases = [
         (DVec3::new(-1.0, -1.0, 0.0), DVec3::ZERO, [1.0, 0.0, 0.0]),
         (DVec3::new(3.0, 0.0, 1.0), DVec3::new(2.0, 0.0, 0.0), [0.0, 1.0, 0.0]),
@@ -153,7 +153,7 @@ fn degenerate_triangles_are_measured_as_segments_and_points() {
             [8, 9, 4], // duplicated vertices at one position
         ],
     };
-    let distance = MeshDistance::new(&mesh).unwrap();
+    let distance = MeshQuery::new(&mesh).unwrap();
     let bounds = mesh.bounds().unwrap();
     let mut points = random_points(&bounds, 1.0, 3000, 4);
     points.extend(mesh.vertices.iter().copied());
@@ -167,7 +167,7 @@ fn degenerate_triangles_are_measured_as_segments_and_points() {
 #[test]
 fn signs_are_positive_inside_and_negative_outside() {
     let ball = sphere(DVec3::new(1.0, 2.0, 3.0), 2.0, 24, 48);
-    let distance = MeshDistance::new(&ball).unwrap();
+    let distance = MeshQuery::new(&ball).unwrap();
     let points = [
         DVec3::new(1.0, 2.0, 3.0),
         DVec3::new(2.0, 2.5, 3.0),
@@ -190,14 +190,14 @@ fn signs_are_positive_inside_and_negative_outside() {
     let mut inverted = ball.clone();
     inverted.triangles.iter_mut().for_each(|t| t.swap(1, 2));
     for mesh in [flipped, inverted] {
-        let again = MeshDistance::new(&mesh).unwrap().signed(&points);
+        let again = MeshQuery::new(&mesh).unwrap().signed(&points);
         for (a, b) in again.iter().zip(&signed) {
             assert!((a - b).abs() < 1e-12, "{again:?} against {signed:?}");
         }
     }
 
     let ring = torus(1.0, 0.3, 48, 24);
-    let distance = MeshDistance::new(&ring).unwrap();
+    let distance = MeshQuery::new(&ring).unwrap();
     let signed = distance.signed(&[
         DVec3::new(1.0, 0.0, 0.0),
         DVec3::new(0.0, -1.1, 0.1),
@@ -212,7 +212,7 @@ fn signs_are_positive_inside_and_negative_outside() {
 fn an_open_hemisphere_gives_finite_distances() {
     let mut bowl = sphere(DVec3::ZERO, 1.0, 16, 32);
     bowl.triangles.retain(|t| t.iter().all(|&i| bowl.vertices[i as usize].z <= 1e-9));
-    let distance = MeshDistance::new(&bowl).unwrap();
+    let distance = MeshQuery::new(&bowl).unwrap();
     let points = random_points(&bowl.bounds().unwrap(), 0.5, 500, 5);
     let signed = distance.signed(&points);
     for ((&p, s), found) in points.iter().zip(&signed).zip(distance.nearest_all(&points)) {
@@ -243,7 +243,7 @@ fn the_inside_is_the_voxelizers_at_voxel_centres() {
     let voxelized = voxelize(&mesh, &grid, &options).unwrap();
     assert!(voxelized.inside.winding_decided > 0.0, "the winding number decided nothing");
     let centres: Vec<DVec3> = (0..grid.len()).map(|i| grid.position(grid.voxel(i))).collect();
-    let inside = MeshDistance::new(&mesh).unwrap().inside(&centres);
+    let inside = MeshQuery::new(&mesh).unwrap().inside(&centres);
     let differ =
         (inside.iter().zip(&voxelized.density.data)).filter(|&(&i, &d)| i != (d > 0.5)).count();
     let count = inside.iter().filter(|&&i| i).count();
@@ -254,7 +254,7 @@ fn the_inside_is_the_voxelizers_at_voxel_centres() {
 #[test]
 fn bad_meshes_are_refused() {
     let triangle = |vertices: Vec<DVec3>, triangles: Vec<[u32; 3]>| Mesh { vertices, triangles };
-    let message = |mesh: Mesh| MeshDistance::new(&mesh).unwrap_err().to_string();
+    let message = |mesh: Mesh| MeshQuery::new(&mesh).unwrap_err().to_string();
     let corners = vec![DVec3::ZERO, DVec3::X, DVec3::Y];
     assert_eq!(
         message(triangle(corners.clone(), vec![])),
@@ -273,12 +273,12 @@ fn bad_meshes_are_refused() {
     // An unused vertex may be anything.
     let mut unused = corners;
     unused.push(DVec3::INFINITY);
-    assert!(MeshDistance::new(&triangle(unused, vec![[0, 1, 2]])).is_ok());
+    assert!(MeshQuery::new(&triangle(unused, vec![[0, 1, 2]])).is_ok());
 }
 
 #[test]
 fn a_non_finite_query_gives_nan_not_a_panic() {
-    let distance = MeshDistance::new(&torus(1.0, 0.3, 12, 8)).unwrap();
+    let distance = MeshQuery::new(&torus(1.0, 0.3, 12, 8)).unwrap();
     assert!(distance.nearest(DVec3::new(f64::NAN, 0.0, 0.0)).distance.is_nan());
     assert!(
         distance.signed(&[DVec3::INFINITY])[0].is_nan()
@@ -301,7 +301,7 @@ proptest! {
         let n = vertices.len() as u32;
         let triangles = triangles.iter().map(|&(a, b, c)| [a % n, b % n, c % n]).collect();
         let mesh = Mesh { vertices, triangles };
-        let distance = MeshDistance::new(&mesh).unwrap();
+        let distance = MeshQuery::new(&mesh).unwrap();
         for (x, y, z) in queries {
             let p = DVec3::new(x, y, z);
             check(&mesh, p, &distance.nearest(p));
@@ -318,7 +318,7 @@ fn the_distance_job_signs_checks_points_and_memory() {
     let points = [DVec3::ZERO, DVec3::new(0.0, 0.0, 3.0), DVec3::new(-2.0, 0.0, 0.0)];
     let mut options = DistanceOptions::default();
     let found = pipeline::distance(&ball, "ball.obj", &points, &options).unwrap();
-    let distance = MeshDistance::new(&ball).unwrap();
+    let distance = MeshQuery::new(&ball).unwrap();
     assert_eq!(found.values, distance.signed(&points));
     assert_eq!(found.nearest, distance.nearest_all(&points));
     // A pole is a vertex: exactly 2 away. The centre is within the tessellation's sag of 1.

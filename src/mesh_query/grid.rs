@@ -1,10 +1,10 @@
 //! The exact signed distance at the voxel centres of a grid ([`signed_distance`]): what
 //! `implicitize sdf --exact` writes.
 //!
-//! Each voxel centre's distance to the triangles is [`MeshDistance`]'s exact one (f64, mesh
-//! units, the same number [`MeshDistance::nearest`] gives), stored as f32. The sign is the
+//! Each voxel centre's distance to the triangles is [`MeshQuery`]'s exact one (f64, mesh
+//! units, the same number [`MeshQuery::nearest`] gives), stored as f32. The sign is the
 //! voxelization's: positive where the voxel's density exceeds 1/2, the inside of the voxel
-//! signed distance ([`crate::distance::signed_distance`]) and of the fit, voxel for voxel.
+//! signed distance ([`crate::edt::signed_distance`]) and of the fit, voxel for voxel.
 //!
 //! # Grid coherence
 //! The voxels are measured in blocks of [`BLOCK`]³ (slabs of blocks in parallel, rayon). A
@@ -16,7 +16,7 @@
 //! at any `p` (tight near `c`); a voxel measures exactly the triangle of the least bound, then
 //! only the triangles whose bound is below the best so far. The bounds are lowered by a
 //! relative 1e-10 against rounding, so no triangle is skipped that could be nearest: the answer
-//! is the minimum over all triangles, the number [`MeshDistance::nearest`] gives, bit for bit.
+//! is the minimum over all triangles, the number [`MeshQuery::nearest`] gives, bit for bit.
 //!
 //! # Band
 //! With a band of K voxels, every value is clamped to ±K voxels (K times the voxel size, mesh
@@ -30,18 +30,14 @@
 
 use rayon::prelude::*;
 
-use super::{MeshDistance, closest_on_triangle, signed};
+use super::{MeshQuery, closest_on_triangle, signed};
 use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
 
 /// The exact distance from each voxel centre of `density`'s grid to the surface of `query`,
 /// mesh units, positive where the density exceeds 1/2 (see the module doc); with `band` (K
 /// voxels, positive), clamped to ±K voxels. The densities' storage becomes the volume's.
-pub fn signed_distance(
-    query: &MeshDistance,
-    density: Volume<f32>,
-    band: Option<f64>,
-) -> Volume<f32> {
+pub fn signed_distance(query: &MeshQuery, density: Volume<f32>, band: Option<f64>) -> Volume<f32> {
     let grid = density.grid;
     let mut values = density;
     let near = band.map(|k| near_surface(query, &grid, reach(k)));
@@ -92,7 +88,7 @@ struct Candidates {
 impl Candidates {
     /// Gathers the triangles within `radius` of `c`.
     /// `rho`: the farthest voxel centre from `c`, for the margin against rounding.
-    fn gather(&mut self, query: &MeshDistance, c: DVec3, radius: f64, rho: f64) {
+    fn gather(&mut self, query: &MeshQuery, c: DVec3, radius: f64, rho: f64) {
         self.distance.clear();
         self.gradient.iter_mut().for_each(Vec::clear);
         self.triangle.clear();
@@ -110,7 +106,7 @@ impl Candidates {
 
     /// The squared distance from `p` to the nearest gathered triangle (`c`: the block's
     /// centre), or `None` when none was gathered.
-    fn nearest(&mut self, query: &MeshDistance, p: DVec3, c: DVec3) -> Option<f64> {
+    fn nearest(&mut self, query: &MeshQuery, p: DVec3, c: DVec3) -> Option<f64> {
         let offset = p - c;
         let [gx, gy, gz] = &self.gradient;
         self.lower.clear();
@@ -148,7 +144,7 @@ impl Block<'_> {
     /// distances; `near`: the slab's voxels within the band, if any.
     fn measure(
         &self,
-        query: &MeshDistance,
+        query: &MeshQuery,
         candidates: &mut Candidates,
         near: Option<&[bool]>,
         values: &mut [f32],
@@ -200,7 +196,7 @@ impl Block<'_> {
 
 /// Which voxels of `grid` lie within `reach` voxels along every axis of a cell that a
 /// triangle of `query` may touch (see the module doc).
-fn near_surface(query: &MeshDistance, grid: &Grid, reach: usize) -> Vec<bool> {
+fn near_surface(query: &MeshQuery, grid: &Grid, reach: usize) -> Vec<bool> {
     let mut touched = vec![false; grid.len()];
     // A cell's centre within half its diagonal of the triangle, with room for rounding.
     let within = (3f64.sqrt() / 2.0 + 1e-6).powi(2);

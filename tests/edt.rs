@@ -1,7 +1,7 @@
 //! Signed distance (paper 4.2): exact against brute force and known shapes, boundary voxels,
 //! surface points, interpolation and gradients.
 
-use implicitize::distance::{
+use implicitize::edt::{
     boundary_voxels, gradient, inside, sample, signed_distance, signed_distance_within,
     surface_point,
 };

@@ -2,7 +2,7 @@
 //! triangle it lies on and its barycentric coordinates, and the distance signed by the
 //! voxelizer's inside decision (ray votes, the generalized winding number where they disagree).
 //!
-//! [`MeshDistance`] holds a bounding volume hierarchy over the triangles, leaves of at most
+//! [`MeshQuery`] holds a bounding volume hierarchy over the triangles, leaves of at most
 //! [`LEAF`] triangles: each node split across the longest axis of its triangles' centroids
 //! where the surface area heuristic finds it cheapest (the children's box areas weighted by
 //! their triangles, over 16 bins), which makes tighter boxes than the median and so
@@ -16,14 +16,14 @@
 //! binary one.
 //!
 //! # What it guarantees
-//! * **Exact:** [`MeshDistance::nearest`] visits every node whose box could hold a closer point
+//! * **Exact:** [`MeshQuery::nearest`] visits every node whose box could hold a closer point
 //!   than the best found so far (nearest child first, pruned by the squared distance to the
 //!   box), and finds each triangle's closest point with Ericson's region test (*Real-Time
 //!   Collision Detection*, 5.1.5). The answer is the brute-force minimum over all triangles up
 //!   to rounding, for any finite query point, near the surface or far outside its box.
 //! * **Degenerate triangles** (zero area, collinear or repeated corners) are measured as the
 //!   segments or point they are, so they never give a wrong or non-finite distance.
-//! * **Sign** ([`MeshDistance::signed`]): positive inside, negative outside, in the mesh's
+//! * **Sign** ([`MeshQuery::signed`]): positive inside, negative outside, in the mesh's
 //!   units, like every value of this crate. Inside is decided as the voxelizer decides it at a
 //!   voxel centre ([`crate::voxelize`]), over the triangles re-oriented as it re-orients them
 //!   (consistently across shared edges, outward), so a flipped or partly flipped mesh has the
@@ -39,14 +39,14 @@
 //!
 //! ```
 //! use implicitize::mesh::Mesh;
-//! use implicitize::mesh_distance::MeshDistance;
+//! use implicitize::mesh_query::MeshQuery;
 //! use implicitize::DVec3;
 //!
 //! let mesh = Mesh {
 //!     vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
 //!     triangles: vec![[0, 1, 2]],
 //! };
-//! let distance = MeshDistance::new(&mesh)?;
+//! let distance = MeshQuery::new(&mesh)?;
 //! let nearest = distance.nearest(DVec3::new(0.25, 0.25, 2.0));
 //! assert_eq!(nearest.distance, 2.0);
 //! assert_eq!(nearest.point, DVec3::new(0.25, 0.25, 0.0));
@@ -73,13 +73,13 @@ pub mod grid;
 /// Most triangles in a leaf of the hierarchy.
 pub const LEAF: usize = 4;
 
-/// Bytes per triangle of a mesh that building a [`MeshDistance`] needs at its peak: the
+/// Bytes per triangle of a mesh that building a [`MeshQuery`] needs at its peak: the
 /// triangles' corners twice (as read from the mesh and in the hierarchy's order), their
 /// centroids, boxes and indices while sorting, which way each faces, which are slivers, and
 /// the nodes, fewer than `4 / LEAF` a triangle (leaves hold more than `LEAF / 2` triangles
 /// each). The four-wide nodes, fewer than `2 / LEAF` a triangle, are made once the sort's
 /// entries and the corners as read are freed, and take less than those. Not counted: what the
-/// first sign ([`MeshDistance::inside`]) builds: the re-orientation and its tables (those of
+/// first sign ([`MeshQuery::inside`]) builds: the re-orientation and its tables (those of
 /// reading a mesh, [`crate::memory`]), the lines' grids and boxes and the winding number's
 /// tree.
 pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
@@ -110,7 +110,7 @@ pub struct Nearest {
 struct Node {
     min: Vec3,
     max: Vec3,
-    /// A leaf's first triangle in `MeshDistance::triangles`, or an inner node's first child
+    /// A leaf's first triangle in `MeshQuery::triangles`, or an inner node's first child
     /// (the second follows it).
     first: u32,
     /// A leaf's number of triangles; 0 for an inner node.
@@ -255,7 +255,7 @@ fn collapsed(binary: &[Node], n: usize) -> Vec<usize> {
 
 /// A triangle mesh prepared for exact distance queries.
 #[derive(Debug, Clone)]
-pub struct MeshDistance {
+pub struct MeshQuery {
     /// The four-wide hierarchy that queries descend, its root first ([`widen`]).
     nodes: Vec<Wide>,
     /// The box of all the triangles (f32, rounded outward, as a [`Node`]'s).
@@ -270,16 +270,16 @@ pub struct MeshDistance {
     centre: DVec3,
     /// Whether each of `triangles` faces against the orientation the voxelizer gives the mesh
     /// (consistent across edges, outward: see [`crate::voxelize`]), for the sign: found when a
-    /// sign is first asked for ([`MeshDistance::flipped`]), so that unsigned queries skip it.
+    /// sign is first asked for ([`MeshQuery::flipped`]), so that unsigned queries skip it.
     flipped: OnceLock<Vec<bool>>,
 }
 
-impl MeshDistance {
+impl MeshQuery {
     /// Builds the hierarchy over `mesh`'s triangles.
     ///
     /// Refuses a mesh with no triangles, a vertex index out of range, a non-finite coordinate
     /// of a vertex some triangle uses, or more triangles than fit in 32 bits.
-    pub fn new(mesh: &Mesh) -> Result<MeshDistance> {
+    pub fn new(mesh: &Mesh) -> Result<MeshQuery> {
         let context = "mesh";
         if mesh.triangles.is_empty() {
             return Err(Error::invalid(context, "no triangles to measure a distance to"));
@@ -314,27 +314,19 @@ impl MeshDistance {
             }
             triangles.push(points);
         }
-        Ok(MeshDistance::build(triangles, centre(&mesh.vertices)))
+        Ok(MeshQuery::build(triangles, centre(&mesh.vertices)))
     }
 
     /// The hierarchy over `triangles` (at least one), with the triangles in its order;
     /// `centre`: the mean of the mesh's vertices.
-    fn build(corners: Vec<[DVec3; 3]>, centre: DVec3) -> MeshDistance {
+    fn build(corners: Vec<[DVec3; 3]>, centre: DVec3) -> MeshQuery {
         let (binary, indices) = hierarchy(&corners, LEAF);
         let triangles: Vec<_> = indices.par_iter().map(|&t| corners[t as usize]).collect();
         drop(corners);
         let slivers = triangles.par_iter().map(is_sliver).collect();
         let bounds = [binary[0].min.as_dvec3(), binary[0].max.as_dvec3()];
         let nodes = widen(&binary);
-        MeshDistance {
-            nodes,
-            bounds,
-            triangles,
-            indices,
-            slivers,
-            centre,
-            flipped: OnceLock::new(),
-        }
+        MeshQuery { nodes, bounds, triangles, indices, slivers, centre, flipped: OnceLock::new() }
     }
 
     /// Which triangles (in the hierarchy's order) the voxelizer's re-orientation flips,
@@ -367,7 +359,7 @@ impl MeshDistance {
         self.triangles.len()
     }
 
-    /// Always false: a [`MeshDistance`] has at least one triangle.
+    /// Always false: a [`MeshQuery`] has at least one triangle.
     pub fn is_empty(&self) -> bool {
         self.triangles.is_empty()
     }
@@ -378,25 +370,25 @@ impl MeshDistance {
         self.answer(p, self.search(p, self.seed(p, 0)))
     }
 
-    /// [`MeshDistance::nearest`] of each point, in parallel. The points are taken in the
+    /// [`MeshQuery::nearest`] of each point, in parallel. The points are taken in the
     /// order of a space-filling curve (Morton order over their box), in runs of [`RUN`], and
     /// each search starts from the triangle nearest to the point before it in its run: a
     /// candidate at most the two points' distance apart from the answer, so the descent prunes
-    /// from its first node. The distances are those of [`MeshDistance::nearest`]: the start
+    /// from its first node. The distances are those of [`MeshQuery::nearest`]: the start
     /// only changes which boxes are opened (where two triangles are equally near, either may
     /// be named).
     pub fn nearest_all(&self, points: &[DVec3]) -> Vec<Nearest> {
         self.search_all(points, |i, found| self.answer(points[i], found))
     }
 
-    /// The distance of each point to the surface: [`MeshDistance::nearest_all`]'s distances,
+    /// The distance of each point to the surface: [`MeshQuery::nearest_all`]'s distances,
     /// without the closest points.
     pub fn distances(&self, points: &[DVec3]) -> Vec<f64> {
         self.search_all(points, |_, (d2, _)| d2.sqrt())
     }
 
-    /// `answer(i, found)` of each point `i` and what [`MeshDistance::search`] found for it,
-    /// the points searched as [`MeshDistance::nearest_all`] says, each from the answer before.
+    /// `answer(i, found)` of each point `i` and what [`MeshQuery::search`] found for it,
+    /// the points searched as [`MeshQuery::nearest_all`] says, each from the answer before.
     fn search_all<T: Send + Sync + Copy + Default>(
         &self,
         points: &[DVec3],
@@ -413,7 +405,7 @@ impl MeshDistance {
     }
 
     /// The squared distance from `p` to triangle `t` (in the hierarchy's order) and `t`: a
-    /// start for [`MeshDistance::search`].
+    /// start for [`MeshQuery::search`].
     #[inline]
     fn seed(&self, p: DVec3, t: usize) -> (f64, usize) {
         (p.distance_squared(self.closest(p, t).0), t)
@@ -501,25 +493,25 @@ impl MeshDistance {
         }
     }
 
-    /// What [`MeshDistance::search`] found for `p`, in the mesh's terms.
+    /// What [`MeshQuery::search`] found for `p`, in the mesh's terms.
     fn answer(&self, p: DVec3, (d2, t): (f64, usize)) -> Nearest {
         let (point, barycentric) = self.closest(p, t);
         Nearest { distance: d2.sqrt(), point, triangle: self.indices[t] as usize, barycentric }
     }
 
     /// The distance of each point to the surface, positive inside and negative outside, inside
-    /// as [`MeshDistance::inside`] decides it (see the module doc). Each point's distance and
+    /// as [`MeshQuery::inside`] decides it (see the module doc). Each point's distance and
     /// side are found together, along one curve.
     pub fn signed(&self, points: &[DVec3]) -> Vec<f64> {
         let sign = Sign::new(self);
         self.search_all(points, |i, (d2, _)| signed(d2.sqrt(), sign.inside(points[i])))
     }
 
-    /// Whether each point is inside, as [`MeshDistance::signed`] signs it (see the module doc):
+    /// Whether each point is inside, as [`MeshQuery::signed`] signs it (see the module doc):
     /// the verdict of the rays through it along the three axes where at least two vote and all
     /// agree, else whether the generalized winding number is at least 1/2. The winding number's
     /// tree is built for the call, only if some point needs it. The points are taken along the
-    /// same curve as [`MeshDistance::nearest_all`], so that neighbouring queries read the same
+    /// same curve as [`MeshQuery::nearest_all`], so that neighbouring queries read the same
     /// nodes.
     pub fn inside(&self, points: &[DVec3]) -> Vec<bool> {
         let sign = Sign::new(self);
@@ -780,7 +772,7 @@ struct Lines {
 
 impl Lines {
     /// The three planes over `query`'s triangles, built in parallel.
-    fn new(query: &MeshDistance) -> Lines {
+    fn new(query: &MeshQuery) -> Lines {
         let triangles: Vec<[DVec3; 3]> = (0..query.len()).map(|t| query.oriented(t)).collect();
         let [low, high] = query.bounds;
         let plane = |axis| Plane::new(&triangles, axis, low, high);
@@ -931,18 +923,18 @@ impl Plane {
     }
 }
 
-/// The voxelizer's inside decision at any point (see [`MeshDistance::inside`]): the lines
+/// The voxelizer's inside decision at any point (see [`MeshQuery::inside`]): the lines
 /// along the three axes, and the winding number's tree, built the first time the lines
 /// disagree.
 struct Sign<'a> {
-    query: &'a MeshDistance,
+    query: &'a MeshQuery,
     lines: Lines,
     winding: OnceLock<(Winding, Frame)>,
 }
 
 impl Sign<'_> {
     /// The lines over `query`'s triangles, re-oriented.
-    fn new(query: &MeshDistance) -> Sign<'_> {
+    fn new(query: &MeshQuery) -> Sign<'_> {
         // Found before the lines, so that the two do not hold memory at once.
         query.flipped();
         Sign { query, lines: Lines::new(query), winding: OnceLock::new() }
@@ -1003,8 +995,8 @@ impl Frame {
     }
 }
 
-/// Queries that [`MeshDistance::nearest_all`] answers one after another, each searched from the
-/// answer before it (and that [`MeshDistance::inside`] answers in the same order).
+/// Queries that [`MeshQuery::nearest_all`] answers one after another, each searched from the
+/// answer before it (and that [`MeshQuery::inside`] answers in the same order).
 pub const RUN: usize = 64;
 
 /// The answers for `points`, in their order: `answer(run, answers)` fills the answers of a
@@ -1182,7 +1174,7 @@ mod tests {
         }
         let diagonal = bounds.size().length();
         for (name, mesh) in [("open", open), ("flipped", flipped)] {
-            let query = MeshDistance::new(&mesh).unwrap();
+            let query = MeshQuery::new(&mesh).unwrap();
             let (winding, frame) = query.winding();
             let lines = Lines::new(&query);
             for sigma in [0.005, 0.0005] {
@@ -1232,7 +1224,7 @@ mod tests {
         }
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         for (name, mesh) in [("disks", disks), ("open", open), ("flipped", flipped)] {
-            let query = MeshDistance::new(&mesh).unwrap();
+            let query = MeshQuery::new(&mesh).unwrap();
             let sign = Sign::new(&query);
             let (winding, frame) = query.winding();
             let bounds = mesh.bounds().unwrap();

@@ -12,7 +12,7 @@
 //!   of section 5.4.
 //!
 //! Signed distances put the surface halfway between the last inside and the first outside voxel
-//! centre (see [`crate::distance`]), so a boundary voxel lying on the other shape's boundary too
+//! centre (see [`crate::edt`]), so a boundary voxel lying on the other shape's boundary too
 //! has an error of half a voxel: that is the floor of E, not zero. Errors are honest distances
 //! from voxel centres to the other surface.
 //!
@@ -21,9 +21,11 @@
 //! candidates by these, so the half-voxel steps of voxel-centre distances do not turn into
 //! constraints.
 
+pub mod surface;
+
 use rayon::prelude::*;
 
-use crate::distance;
+use crate::edt;
 use crate::geometry::DVec3;
 use crate::grid::Volume;
 
@@ -261,7 +263,7 @@ pub struct SubVoxel<'a> {
 impl SubVoxel<'_> {
     /// The signed distance at `p` (continuous voxel coordinates), inside positive, in voxels.
     pub fn signed_distance(&self, p: DVec3) -> f32 {
-        let coarse = distance::sample(self.sd, p);
+        let coarse = edt::sample(self.sd, p);
         if coarse.abs() > self.reach + 1.0 {
             return coarse;
         }
@@ -273,20 +275,20 @@ impl SubVoxel<'_> {
 
     /// `(v(p) - level) / |∇v(p)|`, or `None` where the gradient vanishes.
     fn first_order(&self, p: DVec3) -> Option<f32> {
-        let gradient = distance::gradient(self.values, p).length();
-        let value = f64::from(distance::sample(self.values, p) - self.level);
+        let gradient = edt::gradient(self.values, p).length();
+        let value = f64::from(edt::sample(self.values, p) - self.level);
         (gradient > 1e-12).then(|| (value / gradient) as f32)
     }
 
     /// The point of the surface nearest `p` to first order (one Newton step along the
     /// gradient, at most `reach` voxels), or `p` itself where the gradient vanishes.
     pub fn project(&self, p: DVec3) -> DVec3 {
-        let gradient = distance::gradient(self.values, p);
+        let gradient = edt::gradient(self.values, p);
         let g2 = gradient.length_squared();
         if g2 <= 1e-24 {
             return p;
         }
-        let value = f64::from(distance::sample(self.values, p) - self.level);
+        let value = f64::from(edt::sample(self.values, p) - self.level);
         p - (gradient * (value / g2)).clamp_length_max(f64::from(self.reach))
     }
 }

@@ -1,4 +1,4 @@
-//! Detail levels over the paper's fit (see [`crate::levels`]): level 0 is the iterative fit of
+//! Detail levels over the paper's fit (see [`crate::rbf::MultiScale`]): level 0 is the iterative fit of
 //! paper 5 on the goal at a fraction of the resolution, each further level a sum of Wendland
 //! functions fitted to what the levels below leave on the full grid.
 //!
@@ -54,7 +54,7 @@ use crate::error::Result;
 use crate::field::Field;
 use crate::geometry::DVec3;
 use crate::grid::Grid;
-use crate::levels::MultiScale;
+use crate::rbf::MultiScale;
 use crate::rbf::{self, DetailLevel, Implicit, Kernel};
 use crate::shape::Shape;
 

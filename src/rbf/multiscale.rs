@@ -11,7 +11,7 @@
 //! [`DetailLevel`] of Wendland's C2 function with support radius `rho_k`, halving from one
 //! level to the next. `F` is positive inside and negative outside, in the mesh's units, like
 //! `f_0`: the levels correct its values near the surface, where they were fitted (see
-//! `fit/levels.rs`), and vanish beyond their supports.
+//! `fit/detail.rs`), and vanish beyond their supports.
 //!
 //! Evaluation is local: a value or gradient reads level 0 and, per level, only the centres
 //! whose support covers the point (one cell of the level's support index). The values equal
@@ -19,10 +19,10 @@
 
 use rayon::prelude::*;
 
+use super::{DetailLevel, Implicit};
 use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::geometry::DVec3;
-use crate::rbf::{DetailLevel, Implicit};
 
 /// A variational implicit function (level 0) with detail levels over it.
 #[derive(Debug, Clone)]

@@ -1,5 +1,5 @@
 //! How far apart two triangle surfaces are, each way: points spread over one surface by area,
-//! and each point's exact distance to the other ([`crate::mesh_distance`]), summed up as the
+//! and each point's exact distance to the other ([`crate::mesh_query`]), summed up as the
 //! largest, the 99.9th percentile and the mean.
 //!
 //! A fit measures its model this way against the mesh it was fitted to
@@ -33,7 +33,7 @@ use crate::error::Result;
 use crate::geometry::DVec3;
 use crate::mesh::Mesh;
 use crate::mesh::area::{BLOCK, ByArea, on_triangle};
-use crate::mesh_distance::MeshDistance;
+use crate::mesh_query::MeshQuery;
 
 /// Points sampled on each surface.
 pub const SAMPLES: usize = 100_000;
@@ -99,14 +99,14 @@ pub struct MeshDistances {
 /// `voxel_size` (see the module doc). `None` where either surface has no area.
 ///
 /// # Errors
-/// A model surface whose distance query cannot be built (see [`MeshDistance::new`]).
+/// A model surface whose distance query cannot be built (see [`MeshQuery::new`]).
 pub fn between(
-    mesh_query: &MeshDistance,
+    mesh_query: &MeshQuery,
     model: &Mesh,
     voxel_size: f64,
     seed: u64,
 ) -> Result<Option<MeshDistances>> {
-    let model_query = MeshDistance::new(model)?;
+    let model_query = MeshQuery::new(model)?;
     let (Some(on_mesh), Some(on_model)) =
         (spread_on(mesh_query, SAMPLES, seed), spread(&model_query, SAMPLES, seed.wrapping_add(1)))
     else {
@@ -148,11 +148,11 @@ const INTERIOR_STEP: f64 = 0.25;
 
 /// Whether each of `samples` (a point and its triangle in `query.triangles()`) lies inside the
 /// mesh's own solid: the points `step` (mesh units) off its triangle on both sides are both
-/// inside, as [`MeshDistance::inside`] decides (ray votes, the winding number where they
+/// inside, as [`MeshQuery::inside`] decides (ray votes, the winding number where they
 /// disagree). A face that bounds the solid has its outside on one side; an interior face (the
 /// spout's wall inside a teapot's body, a part pushed into another) has the solid on both.
 /// A degenerate triangle (no normal) is not interior.
-pub fn interior(query: &MeshDistance, samples: &[(DVec3, usize)], step: f64) -> Vec<bool> {
+pub fn interior(query: &MeshQuery, samples: &[(DVec3, usize)], step: f64) -> Vec<bool> {
     let triangles = query.triangles();
     let offsets: Vec<DVec3> = samples
         .par_iter()
@@ -177,12 +177,12 @@ pub const SPREAD_CHUNK: usize = 1 << 14;
 /// order. Each chunk of [`SPREAD_CHUNK`] triangles draws from its own stream of `seed`, so the
 /// points do not depend on the number of threads. `None` where the triangles have no area, or
 /// their area is not finite.
-pub fn spread(query: &MeshDistance, n: usize, seed: u64) -> Option<Vec<DVec3>> {
+pub fn spread(query: &MeshQuery, n: usize, seed: u64) -> Option<Vec<DVec3>> {
     Some(spread_on(query, n, seed)?.into_iter().map(|(p, _)| p).collect())
 }
 
 /// [`spread`]'s points, each with the index of its triangle in `query.triangles()`.
-fn spread_on(query: &MeshDistance, n: usize, seed: u64) -> Option<Vec<(DVec3, usize)>> {
+fn spread_on(query: &MeshQuery, n: usize, seed: u64) -> Option<Vec<(DVec3, usize)>> {
     let triangles = query.triangles();
     // The area of the triangles before each one, and last the whole.
     let mut before = Vec::with_capacity(triangles.len() + 1);
@@ -297,7 +297,7 @@ mod tests {
             mesh.vertices.extend(corners.into_iter().chain([DVec3::new(x, 2.0, 0.0)]));
             mesh.triangles.push([base, base + 1, base + 2]);
         }
-        let query = MeshDistance::new(&mesh).unwrap();
+        let query = MeshQuery::new(&mesh).unwrap();
         let whole: f64 = (0..strips).map(|i| 1.0 + (i % 4) as f64).sum();
         for (n, seed) in [(100_000, 1), (7_777, 2), (1_000, 3)] {
             let points = spread(&query, n, seed).unwrap();
@@ -318,6 +318,6 @@ mod tests {
         }
         let flat = Mesh { vertices: vec![DVec3::ZERO, DVec3::X, DVec3::X * 2.0], ..mesh };
         let flat = Mesh { triangles: vec![[0, 1, 2]], ..flat };
-        assert!(spread(&MeshDistance::new(&flat).unwrap(), 10, 1).is_none());
+        assert!(spread(&MeshQuery::new(&flat).unwrap(), 10, 1).is_none());
     }
 }
