@@ -185,6 +185,10 @@ impl<T> Volume<T> {
     }
 }
 
+/// The version of the format of the `.json` beside a volume's `.npy`: raised when a field
+/// changes meaning or goes away; fields may be added within a version.
+pub const VOLUME_HEADER_VERSION: u32 = 1;
+
 /// The unit of a volume's values, as the `.json` beside its `.npy` records it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -215,12 +219,13 @@ impl Values {
 
 impl Volume<f32> {
     /// Writes the volume as a float32 NumPy array indexed `[i, j, k]` (C order) at `path`, and
-    /// the grid and `values` as JSON (`{"dims", "origin", "voxel_size"}` and, when given,
-    /// `"units"` and `"band"`) beside it, with `.json` for `.npy`; each file atomically
+    /// the grid and `values` as JSON (`{"version", "dims", "origin", "voxel_size"}` and, when
+    /// given, `"units"` and `"band"`; `version` is [`VOLUME_HEADER_VERSION`]) beside it, with `.json` for `.npy`; each file atomically
     /// ([`crate::output`]).
     pub fn save_npy(&self, path: &Path, values: &Values) -> Result<()> {
         #[derive(Serialize)]
         struct Header<'a> {
+            version: u32,
             #[serde(flatten)]
             grid: &'a Grid,
             #[serde(flatten)]
@@ -229,7 +234,7 @@ impl Volume<f32> {
         let shape = self.grid.dims.map(|d| d as u64);
         crate::npy::write(path, &shape, &self.data)?;
         let json_path = path.with_extension("json");
-        let header = Header { grid: &self.grid, values };
+        let header = Header { version: VOLUME_HEADER_VERSION, grid: &self.grid, values };
         let json = serde_json::to_string_pretty(&header).expect("a grid always serializes");
         crate::output::write_bytes(&json_path, (json + "\n").as_bytes())
     }

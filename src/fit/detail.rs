@@ -525,16 +525,14 @@ impl<'a> OffSurface<'a> {
     }
 }
 
-/// The largest `|r|` and its 99.9th percentile.
+/// The largest `|r|` and its 99.9th percentile ([`crate::metrics::percentile`]).
 fn error_figures(residual: &[f64]) -> (f64, f64) {
     let mut errors: Vec<f64> = residual.par_iter().map(|r| r.abs()).collect();
     if errors.is_empty() {
         return (0.0, 0.0);
     }
-    let rank = ((errors.len() - 1) as f64 * 0.999).round() as usize;
-    let (_, p999, _) = errors.select_nth_unstable_by(rank, f64::total_cmp);
-    let p999 = *p999;
-    (errors.iter().copied().fold(0.0, f64::max), p999)
+    let max = errors.iter().copied().fold(0.0, f64::max);
+    (max, crate::metrics::percentile(&mut errors, 0.999))
 }
 
 /// The points a level of support `radius` interpolates: greatest `|residual|` first, each at

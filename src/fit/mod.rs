@@ -47,7 +47,7 @@ pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
 pub use report::{
     BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, LevelReport,
-    LevelsReport, LevelsStop, StalledLoop, TargetOutcome, Termination, Timings,
+    LevelsReport, LevelsStop, REPORT_VERSION, StalledLoop, TargetOutcome, Termination, Timings,
 };
 pub use thickness::Thickness;
 
@@ -345,6 +345,7 @@ fn report_of(
     // A shell's levels have no iterations of the paper's loop below them (no constraints).
     let kept = best_iteration.checked_sub(1).map(|i| per_iteration[i].constraints);
     FitReport {
+        version: REPORT_VERSION,
         method: "iterative".into(),
         iterations: per_iteration.len(),
         best_iteration,

@@ -36,6 +36,7 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
     let counts = super::ConstraintCounts::of_values(constraints.iter().map(|c| c.value));
     let metrics = measured.metrics;
     let report = FitReport {
+        version: super::REPORT_VERSION,
         method: "naive".into(),
         iterations: 1,
         best_iteration: 1,

@@ -258,9 +258,15 @@ impl std::fmt::Display for Termination {
     }
 }
 
+/// The version of the report's format ([`FitReport::version`]): raised when a field changes
+/// meaning or goes away; fields may be added within a version.
+pub const REPORT_VERSION: u32 = 1;
+
 /// The whole fit's report (written as JSON by `implicitize fit --report`).
 #[derive(Debug, Clone, Serialize)]
 pub struct FitReport {
+    /// The version of this format, [`REPORT_VERSION`].
+    pub version: u32,
     /// How the constraints were made: "iterative" (paper 5) or "naive" (paper 3.2).
     pub method: String,
     /// Iterations run, the initial model counting as the first.

@@ -20,8 +20,7 @@
 //!
 //! The fit refuses ([`Thickness::refusal`]) where more than [`MAX_THIN`] of the surface is thin
 //! on walls under [`MIN_WALL`] voxels: there its constraints have no interior to hold the two
-//! faces of a wall apart, and the fit ends far from its target (hollow balls with walls of 1
-//! and 2 voxels stopped at E 12 and 18 on the default grid). The resolution it names makes the
+//! faces of a wall apart, and the fit ends far from its target. The resolution it names makes the
 //! thin walls [`HELD_WALL`] voxels thick.
 
 use rayon::prelude::*;
@@ -60,19 +59,17 @@ pub const DEEP: f32 = 2.0;
 pub const PROBE: f64 = 6.0;
 
 /// Above this fraction of the surface thin, the fit is refused: a hollow shell is thin all
-/// over, while the triceratops on grids of 48 to 64 voxels has 30% of its surface on walls of
-/// about 3 voxels (legs, horns, frill) and fits.
+/// over, where solids with thin limbs that fit have less (measured in `docs/results.md`,
+/// "Where the thickness thresholds come from").
 pub const MAX_THIN: f64 = 0.5;
 
-/// Thin walls at least this thick (voxels) are fitted, however much of the surface they hold:
-/// the triceratops on a grid of 32 voxels is thin all over, on walls of about 5.3 voxels, and
-/// fits; hollow balls with walls of 1 and 2 voxels and a hollow bust with walls of 4 do not
-/// (E 12.6, 18.0 and 21.7 on the default grid).
+/// Thin walls at least this thick (voxels) are fitted, however much of the surface they hold
+/// (the thinnest walls measured to fit and the thickest measured to fail lie on either side:
+/// `docs/results.md`, "Where the thickness thresholds come from").
 pub const MIN_WALL: f64 = 4.5;
 
 /// Above this fraction of the surface on walls under [`MIN_WALL`] voxels, a fit the grid holds
-/// still warns ([`Thickness::warning`]): the triceratops has 5% of its surface on such walls at
-/// the default grid, 30% on grids of 48 to 64 voxels.
+/// still warns ([`Thickness::warning`]), below the share that is refused.
 pub const THIN_WARNING: f64 = 0.25;
 
 /// The wall (voxels) the resolution a refusal names gives the thin walls.

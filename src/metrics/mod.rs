@@ -352,8 +352,35 @@ impl ErrorMetrics {
     }
 }
 
+/// The `q`-quantile of `values` (at least one; `q` in [0, 1]), interpolated linearly between
+/// the two nearest ranks as numpy's default does: rank `q (n - 1)`. The one definition of a
+/// percentile in every report. Reorders `values`.
+pub(crate) fn percentile(values: &mut [f64], q: f64) -> f64 {
+    let rank = q * (values.len() - 1) as f64;
+    let below = rank.floor() as usize;
+    let (_, &mut at, above) = values.select_nth_unstable_by(below, f64::total_cmp);
+    match above.iter().copied().min_by(f64::total_cmp) {
+        Some(next) => at + (next - at) * rank.fract(),
+        None => at,
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    /// The percentile interpolates between ranks and agrees with a sort, whatever the order.
+    #[test]
+    fn the_percentile_interpolates_between_the_nearest_ranks() {
+        let mut values: Vec<f64> = (0..=1000).rev().map(f64::from).collect();
+        assert_eq!(super::percentile(&mut values, 0.999), 999.0);
+        let mut values = vec![3.0, 1.0, 2.0, 4.0];
+        // rank 0.999 * 3 = 2.997: between 3 and 4.
+        let p = super::percentile(&mut values, 0.999);
+        assert!((p - 3.997).abs() < 1e-12, "{p}");
+        assert_eq!(super::percentile(&mut [5.0], 0.999), 5.0);
+        assert_eq!(super::percentile(&mut [2.0, 1.0], 0.0), 1.0);
+        assert_eq!(super::percentile(&mut [2.0, 1.0], 1.0), 2.0);
+    }
+
     use super::*;
     use crate::grid::Grid;
 

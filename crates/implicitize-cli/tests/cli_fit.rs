@@ -44,6 +44,7 @@ fn fit_writes_the_model_the_report_and_the_surface() {
     ] {
         assert!(report.get(key).is_some(), "the report has no {key}");
     }
+    assert_eq!(report["version"].as_u64(), Some(u64::from(implicitize::fit::REPORT_VERSION)));
     // The initialization alone puts boundary constraints on the surface and interior and
     // exterior ones on either side of it (paper 5.1).
     for key in ["boundary", "interior", "exterior"] {

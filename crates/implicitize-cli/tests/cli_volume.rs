@@ -41,6 +41,7 @@ fn voxelize_writes_densities_and_the_grid() {
     let dims: Vec<u64> =
         json["dims"].as_array().unwrap().iter().map(|d| d.as_u64().unwrap()).collect();
     assert_eq!(dims, shape);
+    assert_eq!(json["version"].as_u64(), Some(u64::from(implicitize::grid::VOLUME_HEADER_VERSION)));
     assert!(
         json["voxel_size"].as_f64().unwrap() > 0.0 && json["origin"].as_array().unwrap().len() == 3
     );
