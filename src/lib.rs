@@ -84,6 +84,7 @@
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
 //! | detail levels of compactly supported functions over the fit | [`rbf::MultiScale`] | |
 //! | a mesh to a fitted model in one call | [`pipeline`] | |
+//! | a fit's settings by their user-facing names, written once | [`settings`] | |
 //! | the shapes a model holds; save and load models | [`shape`], [`model`] | |
 //! | a 2D goal from a PNG image | [`goal2d`] | 4.3 |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
@@ -118,6 +119,7 @@ pub mod polygonize;
 pub mod rbf;
 pub mod render;
 pub mod sample;
+pub mod settings;
 pub mod shader;
 pub mod shape;
 pub mod voxelize;

@@ -30,12 +30,14 @@ from ._implicitize import csg as _csg
 from ._implicitize import defaults as _defaults
 from ._implicitize import distance as _distance
 from ._implicitize import fit as _fit
+from ._implicitize import fit_settings as _fit_settings
 from ._implicitize import load as _load
 from ._implicitize import sample as _sample
 from ._implicitize import volume as _volume
 
 __all__ = [
     "DEFAULTS",
+    "FIT_SETTINGS",
     "Model",
     "Volume",
     "voxelize",
@@ -53,6 +55,10 @@ __all__ = [
 #: ``seed``, ``max_iterations``, ``max_constraints``, ``naive_max_constraints``, ``method``,
 #: ``near_surface``, ``uniform``).
 DEFAULTS = dict(_defaults())
+
+#: Every keyword of :func:`fit` that the library defines (``name``, ``unit``, ``default`` as
+#: text or None, ``help``), the settings ``implicitize fit --config FILE`` reads by the same names.
+FIT_SETTINGS = [dict(setting) for setting in _fit_settings()]
 
 _Memory = Union[int, str, None]
 

@@ -10,6 +10,7 @@ _Path = Union[str, "os.PathLike[str]"]
 _Memory = Union[int, str, None]
 
 DEFAULTS: dict[str, Any]
+FIT_SETTINGS: list[dict[str, Any]]
 """The library's defaults of the keywords left at None."""
 _Points = npt.ArrayLike
 _Vec3 = Tuple[float, float, float]

@@ -3,9 +3,9 @@
 
 use std::path::PathBuf;
 
-use implicitize::fit::ErrorMeasure;
 use implicitize::memory::{self, MemoryLimit};
 use implicitize::pipeline::{MeshFitOptions, MeshSource};
+use implicitize::settings::FitSettings;
 use implicitize::{DVec3, Mesh, Resolution, mesh};
 use numpy::{PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -233,60 +233,51 @@ pub enum ShellArg {
 }
 
 impl ShellArg {
-    /// The library's shell.
-    fn shell(self) -> PyResult<implicitize::voxelize::shell::Shell> {
+    /// The thickness as the library's settings spell it: `"2"` voxels, `"0.01u"` mesh units.
+    fn text(self) -> String {
         match self {
-            ShellArg::Voxels(t) => {
-                let shell = implicitize::voxelize::shell::Shell::Voxels(t);
-                shell.check().map_err(to_py)?;
-                Ok(shell)
-            }
-            ShellArg::Text(text) => text.parse().map_err(to_py),
+            ShellArg::Voxels(t) => t.to_string(),
+            ShellArg::Text(text) => text,
         }
     }
 }
 
 impl FitArgs {
-    /// The library's options: its defaults, with what was given set on them (the library
-    /// checks their ranges when the fit starts).
+    /// The library's settings ([`FitSettings`]) for these keywords, Python's integers checked
+    /// for their sign; the library turns them into its options and checks their ranges.
     pub fn options(self) -> PyResult<MeshFitOptions> {
-        let mut options = MeshFitOptions::default();
-        options.resolution = resolution(self.resolution, self.dims)?;
-        if let Some(method) = self.method {
-            options.method = method.parse().map_err(to_py)?;
+        let mut settings = FitSettings::default();
+        match resolution(self.resolution, self.dims)? {
+            Resolution::Dims(dims) => settings.dims = Some(dims),
+            Resolution::LongestAxis(n) => settings.resolution = Some(n),
         }
-        let fit = &mut options.fit;
-        if let Some(target) = self.target_error {
-            fit.target_error = target as f32;
-        }
-        if let Some(seed) = self.seed {
-            fit.seed = seed;
-        }
-        if let Some(n) = self.max_iterations {
-            fit.max_iterations = count("max_iterations", n)?;
-        }
-        if let Some(n) = self.max_constraints {
-            fit.max_constraints = Some(count("max_constraints", n)?);
-        }
-        if self.subvoxel {
-            fit.error_measure = ErrorMeasure::SubVoxel;
-        }
-        fit.coarse_start = !self.full_resolution;
-        if let Some(n) = self.levels {
-            fit.levels.max_levels = usize::try_from(n)
-                .map_err(|_| invalid(format!("levels must be a count of 0 or more, not {n}")))?;
-        }
-        options.shell = self.shell.map(ShellArg::shell).transpose()?;
-        options.solid = self.solid;
-        if let Some(n) = self.max_bytes {
-            options.max_bytes =
-                Some(u64::try_from(n).ok().filter(|&n| n > 0).ok_or_else(|| {
+        settings.method = self.method;
+        settings.target_error = self.target_error;
+        settings.seed = self.seed;
+        settings.max_iterations =
+            self.max_iterations.map(|n| count("max_iterations", n)).transpose()?;
+        settings.max_constraints =
+            self.max_constraints.map(|n| count("max_constraints", n)).transpose()?;
+        settings.subvoxel = self.subvoxel;
+        settings.full_resolution = self.full_resolution;
+        settings.levels = self
+            .levels
+            .map(|n| {
+                usize::try_from(n)
+                    .map_err(|_| invalid(format!("levels must be a count of 0 or more, not {n}")))
+            })
+            .transpose()?;
+        settings.shell = self.shell.map(ShellArg::text);
+        settings.solid = self.solid;
+        settings.max_bytes = self
+            .max_bytes
+            .map(|n| {
+                u64::try_from(n).ok().filter(|&n| n > 0).ok_or_else(|| {
                     invalid(format!("max_bytes must be a positive number of bytes, not {n}"))
-                })?);
-        }
-        options.memory_limit = memory_limit(self.memory_limit)?;
-        options.check().map_err(to_py)?;
-        Ok(options)
+                })
+            })
+            .transpose()?;
+        settings.options("options", memory_limit(self.memory_limit)?).map_err(to_py)
     }
 }
 

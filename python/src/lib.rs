@@ -45,6 +45,7 @@ fn _implicitize(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(batch::batch_failed, m)?)?;
     m.add_function(wrap_pyfunction!(batch::batch_manifest, m)?)?;
     m.add_function(wrap_pyfunction!(defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_settings, m)?)?;
     m.add_function(wrap_pyfunction!(available_memory, m)?)?;
     m.add_function(wrap_pyfunction!(parse_size, m)?)?;
     Ok(())
@@ -70,6 +71,24 @@ fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     defaults.set_item("near_surface", sample.near_surface)?;
     defaults.set_item("uniform", sample.uniform)?;
     Ok(defaults)
+}
+
+/// Every setting of a fit (`implicitize::settings::fit_settings`): its name (the keyword),
+/// unit, default as text (`None` where nothing given means something else) and one line of
+/// help, as dicts.
+#[pyfunction]
+fn fit_settings(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
+    implicitize::settings::fit_settings()
+        .into_iter()
+        .map(|setting| {
+            let dict = PyDict::new(py);
+            dict.set_item("name", setting.name)?;
+            dict.set_item("unit", setting.unit)?;
+            dict.set_item("default", setting.default)?;
+            dict.set_item("help", setting.help)?;
+            Ok(dict)
+        })
+        .collect()
 }
 
 /// The memory this process can still get, in bytes (the machine's available memory within

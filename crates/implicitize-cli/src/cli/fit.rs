@@ -3,11 +3,13 @@
 
 use std::path::{Path, PathBuf};
 
+use clap::parser::ValueSource;
 use clap::{Args, ValueEnum};
 use implicitize::fit::{
     ErrorMeasure, FitOptions, IterationReport, LevelOptions, MAX_CONSTRAINTS, naive,
 };
 use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
+use implicitize::settings::{FitSettings, fit_settings};
 use implicitize::{Implicit, ModelFormat, mesh, output};
 
 use super::common::{GridArgs, Progress, memory_limit, read_mesh, warn};
@@ -98,8 +100,7 @@ pub struct FitArgs {
     /// makes on grids of 128 voxels or more along their longest axis).
     #[arg(long)]
     pub full_resolution: bool,
-    /// At most this many detail levels: on a grid of LevelOptions' `min_axis` voxels or more
-    /// (384) along its longest axis, level 0 is fitted at a quarter of the resolution and
+    /// At most this many detail levels: on a grid of 384 voxels or more along its longest axis, level 0 is fitted at a quarter of the resolution and
     /// levels of compactly supported functions, each half the support of the one before, are
     /// added on the full grid until E is at most the target; 0 fits one function as the paper
     /// does
@@ -121,28 +122,90 @@ pub struct FitArgs {
     /// naming its size
     #[arg(long, value_name = "N")]
     pub max_bytes: Option<u64>,
+    /// Read the fit's settings from FILE (TOML, or JSON for a name ending in .json; the keys
+    /// are these flags' names with _ for -, as Python's keywords): the flags given on the
+    /// command line override the file's
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// The settings given on the command line (see [`FitArgs::note_given`]).
+    #[arg(skip)]
+    pub given: Vec<String>,
 }
 
 impl FitArgs {
-    /// The library's options for these flags, under the memory limit.
+    /// These flags as the library's settings, by the names every front end shares.
+    pub fn settings(&self) -> FitSettings {
+        let mut settings = FitSettings::default();
+        match self.grid.dims.as_deref() {
+            Some(&[nx, ny, nz]) => settings.dims = Some([nx, ny, nz]),
+            _ => settings.resolution = Some(self.grid.resolution),
+        }
+        let fit = &self.settings;
+        settings.seed = Some(fit.seed);
+        settings.max_iterations = Some(fit.max_iterations);
+        settings.target_error = Some(f64::from(fit.target_error));
+        settings.subvoxel = fit.subvoxel;
+        settings.max_constraints = fit.max_constraints;
+        settings.method = Some(
+            match self.method {
+                Method::Iterative => "iterative",
+                Method::Naive => "naive",
+            }
+            .to_string(),
+        );
+        settings.full_resolution = self.full_resolution;
+        settings.levels = Some(self.levels);
+        settings.shell = self.shell.clone();
+        settings.solid = self.solid;
+        settings.max_bytes = self.max_bytes;
+        settings
+    }
+
+    /// Records which settings the command line gave (`matches` are the subcommand's), so
+    /// that those override a settings file's.
+    pub fn note_given(&mut self, matches: &clap::ArgMatches) {
+        self.given = fit_settings()
+            .into_iter()
+            .map(|setting| setting.name.to_string())
+            .filter(|name| matches.value_source(name) == Some(ValueSource::CommandLine))
+            .collect();
+    }
+
+    /// The settings of `--config`'s file with those given on the command line over them, or
+    /// the flags' alone without a file.
     ///
     /// # Errors
-    /// A `--shell` that is not a thickness.
+    /// A settings file that cannot be read or holds an unknown key.
+    pub fn merged_settings(&self) -> implicitize::Result<FitSettings> {
+        let flags = self.settings();
+        let Some(path) = &self.config else { return Ok(flags) };
+        let file = FitSettings::read(path)?;
+        let mut merged = serde_json::to_value(file).expect("settings serialize");
+        let flags = serde_json::to_value(flags).expect("settings serialize");
+        for name in &self.given {
+            merged[name] = flags[name].clone();
+            // The grid is one setting given two ways: the one on the command line wins.
+            let other = match name.as_str() {
+                "resolution" => Some("dims"),
+                "dims" => Some("resolution"),
+                _ => None,
+            };
+            if let Some(other) = other {
+                merged[other] = serde_json::Value::Null;
+            }
+        }
+        Ok(serde_json::from_value(merged).expect("merged settings are settings"))
+    }
+
+    /// The library's options for these flags (and `--config`'s file), under the memory limit.
+    ///
+    /// # Errors
+    /// A setting out of its range (a `--shell` that is not a thickness, ...), or a settings
+    /// file that cannot be read.
     pub fn options(&self) -> implicitize::Result<MeshFitOptions> {
-        let mut options = MeshFitOptions::default();
-        options.shell = self.shell.as_deref().map(str::parse).transpose()?;
-        options.solid = self.solid;
-        options.resolution = self.grid.resolution();
-        options.method = match self.method {
-            Method::Iterative => pipeline::Method::Iterative,
-            Method::Naive => pipeline::Method::Naive,
-        };
-        self.settings.apply(&mut options.fit);
-        options.fit.coarse_start = !self.full_resolution;
-        options.fit.levels.max_levels = self.levels;
-        options.max_bytes = self.max_bytes;
-        options.memory_limit = memory_limit();
-        Ok(options)
+        let context =
+            self.config.as_ref().map_or("options".to_string(), |p| p.display().to_string());
+        self.merged_settings()?.options(&context, memory_limit())
     }
 }
 
