@@ -449,10 +449,10 @@ pub fn run(
 }
 
 /// The meshes a batch's summary names, at most.
-pub const WORST_SHOWN: usize = 5;
+pub(crate) const WORST_SHOWN: usize = 5;
 
 /// A batch's quality summary, one line each: how many fits ended above their target, and the
-/// [`WORST_SHOWN`] models farthest from their meshes ([`Entry::worst_p999`]), worst first, with
+/// `WORST_SHOWN` models farthest from their meshes ([`Entry::worst_p999`]), worst first, with
 /// their E and why they stopped. Empty when no mesh was fitted.
 pub fn summary(entries: &[Entry]) -> Vec<String> {
     let mut fitted: Vec<(&Entry, f64)> =

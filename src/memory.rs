@@ -128,14 +128,14 @@ impl Estimate {
     }
 
     /// A fit of a mesh of `triangles` triangles (0 for a picture) on a grid of `dims` voxels,
-    /// with room for a dense solve of the largest size ([`crate::rbf::DIRECT_MAX`]
+    /// with room for a dense solve of the largest size (`DIRECT_MAX`
     /// constraints); [`Estimate::fit_solving`] budgets larger ones as the fit grows.
     pub fn fit(dims: [usize; 3], triangles: usize) -> Estimate {
         Estimate::fit_solving(dims, triangles, crate::rbf::DIRECT_MAX)
     }
 
     /// [`Estimate::fit`] with room for a solve of `constraints` constraints (3D): dense up to
-    /// [`crate::rbf::DIRECT_MAX`], iterative beyond.
+    /// `DIRECT_MAX`, iterative beyond.
     pub fn fit_solving(dims: [usize; 3], triangles: usize, constraints: usize) -> Estimate {
         let grid = Estimate::grid(dims, FIT_PER_VOXEL, triangles);
         Estimate { bytes: grid.bytes.saturating_add(solve_bytes(constraints)), ..grid }

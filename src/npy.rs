@@ -155,10 +155,10 @@ pub fn read_rows(path: &Path) -> Result<(Vec<f64>, usize)> {
 }
 
 /// The longest header read, in bytes: `numpy.load`'s own limit (its `max_header_size`).
-pub const MAX_HEADER: usize = 10_000;
+pub(crate) const MAX_HEADER: usize = 10_000;
 
 /// The deepest nesting of brackets in a header read: a dictionary holding the shape's tuple.
-pub const MAX_HEADER_NESTING: usize = 2;
+pub(crate) const MAX_HEADER_NESTING: usize = 2;
 
 /// Reads the bytes of a `.npy` file as [`read_rows`]; `path` names the file in messages.
 pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {

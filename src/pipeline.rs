@@ -1235,7 +1235,7 @@ pub fn above_target(report: &FitReport) -> Option<String> {
 }
 
 /// A warning (one line, no file name) when more than
-/// [`metrics::surface::INTERIOR_NOTABLE`] of the mesh's surface lies inside its own solid
+/// `INTERIOR_NOTABLE` of the mesh's surface lies inside its own solid
 /// ([`metrics::surface::interior`]): faces no solid's surface holds, which the model leaves
 /// out; with how close the rest of the mesh is to the model.
 pub fn interior_surface(report: &FitReport) -> Option<String> {

@@ -13,7 +13,7 @@
 //!   uniform on it, plus isotropic Gaussian noise of standard deviation `sigma` times the
 //!   diagonal of the mesh's bounding box in each coordinate.
 //! * **Uniform:** in the mesh's bounding box grown on every side by 10% of its size along that
-//!   axis ([`PADDING`]).
+//!   axis (`PADDING`).
 //! * **Distance:** exact, to the triangles ([`crate::mesh_query`]), f64 in the mesh's units,
 //!   positive inside as the voxelizer decides it (rays along the three axes, the generalized
 //!   winding number where they disagree), as [`MeshQuery::signed`] gives it.
@@ -105,7 +105,7 @@ impl SampleOptions {
 
 /// The uniform points' box: the mesh's box grown on every side by this fraction of its size
 /// along each axis.
-pub const PADDING: f64 = 0.1;
+pub(crate) const PADDING: f64 = 0.1;
 
 pub use crate::mesh::area::BLOCK;
 
@@ -136,7 +136,7 @@ pub fn counts(n: usize, options: &SampleOptions) -> (Vec<usize>, usize) {
     (per, uniform)
 }
 
-/// The uniform points' box around `bounds` (see [`PADDING`]).
+/// The uniform points' box around `bounds` (see `PADDING`).
 pub fn padded(bounds: &Aabb) -> Aabb {
     let pad = (bounds.max - bounds.min) * PADDING;
     Aabb { min: bounds.min - pad, max: bounds.max + pad }

@@ -39,7 +39,7 @@
 //! A model with detail levels ([`crate::rbf::MultiScale`]) is level 0's function plus one function per
 //! level, evaluated in level 0's normalized coordinates. A level is never read by looping over
 //! its centres: its [`DetailLevel::grid_index`] (a dense uniform grid over its supports, at most
-//! [`CONSTANT_INDEX_CELLS`] cells in the source, [`TEXTURE_INDEX_CELLS`] in the texture, each
+//! `CONSTANT_INDEX_CELLS` cells in the source, [`TEXTURE_INDEX_CELLS`] in the texture, each
 //! cell listing the centres whose support meets it) gives the point's one cell, whose run of
 //! entries names the centres whose Wendland terms are summed. In the source the level's
 //! normalized centres and weights, cell starts and entries are constant arrays; in the texture
@@ -70,7 +70,7 @@ pub const TEXTURE_WIDTH: usize = 1024;
 
 /// At most about this many cells in the grid index of a detail level whose numbers are
 /// constants in the source ([`source`]): 32^3.
-pub const CONSTANT_INDEX_CELLS: usize = 1 << 15;
+pub(crate) const CONSTANT_INDEX_CELLS: usize = 1 << 15;
 
 /// At most about this many cells in the grid index of a detail level in the texture
 /// ([`texture_source`]): 64^3.

@@ -78,6 +78,16 @@ fn levels_correct_a_coarse_level_0_below_the_target() {
         assert!(level.solve_residual < 1e-8, "level {k}: {level:?}");
         assert!(level.bytes > 0, "level {k}: {level:?}");
         assert_eq!(level.radius_voxels, report.levels[0].radius_voxels / f64::from(1 << k));
+        // A level starts from what the levels below left.
+        let (before, p999_before) = match k {
+            0 => (report.base_max_error_voxels, report.base_p999_error_voxels),
+            _ => (report.levels[k - 1].max_error_voxels, report.levels[k - 1].p999_error_voxels),
+        };
+        assert_eq!(
+            (level.max_error_before_voxels, level.p999_error_before_voxels),
+            (before, p999_before),
+            "level {k}"
+        );
     }
     // Each level's bytes are what it adds to the binary file.
     let total = report.base_bytes + report.levels.iter().map(|l| l.bytes).sum::<usize>();

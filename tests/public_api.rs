@@ -1,4 +1,4 @@
-//! The library's public modules, listed: a module made public, or one made private, is a
+//! The library's public modules and constants, listed: a module made public, or one made private, is a
 //! deliberate change of the API and changes this list. Internals (the fit's surface disks, the
 //! solver's and evaluator's parts in `rbf`) and the paper's figures (drawn by the command) are
 //! not public.
@@ -34,6 +34,7 @@ const PUBLIC_MODULES: &[&str] = &[
     "rbf",
     "render",
     "sample",
+    "settings",
     "shader",
     "shape",
     "shape::csg",
@@ -66,4 +67,66 @@ fn the_public_modules_are_the_listed_ones() {
     public_modules(&src.join("lib.rs"), &src, "", &mut found);
     found.sort();
     assert_eq!(found, PUBLIC_MODULES);
+}
+
+/// Every public constant at a file's top level, as `module::NAME` by the file it is defined in:
+/// the limits, formats and defaults a user may read. The fit's tuning values are
+/// `pub(crate)`; making one public is a decision that changes this list.
+const PUBLIC_CONSTANTS: &[&str] = &[
+    "batch::MANIFEST",
+    "batch::MESH_EXTENSIONS",
+    "fit::MAX_CONSTRAINTS",
+    "fit::naive::DEFAULT_CONSTRAINTS",
+    "fit::report::REPORT_VERSION",
+    "goal2d::MAX_BLUR",
+    "goal2d::MAX_INFLATION",
+    "grid::VOLUME_HEADER_VERSION",
+    "mesh::area::BLOCK",
+    "mesh_query::BYTES_PER_TRIANGLE",
+    "mesh_query::grid::BLOCK",
+    "model::FORMAT",
+    "model::SIGN",
+    "model::VERSION",
+    "model::binary::MAGIC",
+    "model::binary::VERSION",
+    "rbf::isa::ENV",
+    "render::DEFAULT_SIZE",
+    "render::DEFAULT_VIEW",
+    "shader::TEXTURE_INDEX_CELLS",
+    "shader::TEXTURE_WIDTH",
+];
+
+#[test]
+fn the_public_constants_are_the_listed_ones() {
+    let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut found = Vec::new();
+    let mut folders = vec![src.clone()];
+    while let Some(folder) = folders.pop() {
+        for entry in fs::read_dir(&folder).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                folders.push(path);
+                continue;
+            }
+            if path.extension().is_none_or(|e| e != "rs") {
+                continue;
+            }
+            let relative = path.strip_prefix(&src).unwrap().with_extension("");
+            let mut module: Vec<String> =
+                relative.iter().map(|p| p.to_string_lossy().into_owned()).collect();
+            if module.last().is_some_and(|m| m == "mod" || m == "lib") {
+                module.pop();
+            }
+            for line in fs::read_to_string(&path).unwrap().lines() {
+                let Some(rest) = line.strip_prefix("pub const ") else { continue };
+                let name: String =
+                    rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                let mut item = module.clone();
+                item.push(name);
+                found.push(item.join("::"));
+            }
+        }
+    }
+    found.sort();
+    assert_eq!(found, PUBLIC_CONSTANTS);
 }

@@ -187,7 +187,7 @@ pub fn fit(
 /// while the levels fit points sampled on the mesh, as many as `grid` has surface voxels, and
 /// reach its detail through them. The coarser goal remains the judge of the inside (which of
 /// the mesh's points count, which side the band's voxels must have) and of E. Its voxels are
-/// exactly 2 (or 4) of `grid`'s, centred on the same box, with [`GOAL_PADDING`] voxels more on
+/// exactly 2 (or 4) of `grid`'s, centred on the same box, with `GOAL_PADDING` voxels more on
 /// each side.
 pub fn goal_grid(grid: &Grid, options: &FitOptions) -> Grid {
     let longest = grid.dims.iter().copied().max().unwrap_or(0);
@@ -208,7 +208,7 @@ pub fn goal_grid(grid: &Grid, options: &FitOptions) -> Grid {
 
 /// Voxels of a coarser goal's grid added on every side ([`goal_grid`]), so that it keeps the
 /// margin of the grid asked for.
-pub const GOAL_PADDING: usize = 1;
+pub(crate) const GOAL_PADDING: usize = 1;
 
 /// Where a goal on `goal_grid` stands in the pyramid of a fit on `grid`: the same grid, half its
 /// resolution or a quarter (by the ratio of their voxels).
@@ -337,7 +337,7 @@ fn add_levels(
     for k in 0..options.levels.max_levels {
         let radius = first_radius / f64::from(1u32 << k.min(30));
         let wrong = off.wrong_sides();
-        let (max, _) = error_figures(&residual);
+        let (max, p999) = error_figures(&residual);
         if max <= target && wrong.is_empty() && !outside(&residual) {
             stopped = LevelsStop::TargetMet;
             break;
@@ -377,6 +377,8 @@ fn add_levels(
             matrix_entries: solve.entries,
             solve_iterations: solve.iterations,
             solve_residual: solve.residual,
+            max_error_before_voxels: max,
+            p999_error_before_voxels: p999,
             max_error_voxels,
             p999_error_voxels,
             wrong_side_voxels: wrong.len(),

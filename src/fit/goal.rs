@@ -44,7 +44,7 @@ pub struct Goal {
 /// A point sampled on the mesh is kept for the detail levels where the goal's sub-voxel
 /// signed distance there is at most this, in voxels, times the factor by which the goal's
 /// voxels are larger than the grid's (see [`Goal::with_mesh_points`]).
-pub const MESH_AGREEMENT: f32 = 1.0;
+pub(crate) const MESH_AGREEMENT: f32 = 1.0;
 
 impl Goal {
     /// The goal of a density volume (from [`crate::voxelize::voxelize`], or an image in 2D).
@@ -156,7 +156,7 @@ impl Goal {
     /// the side measured as below. Without, the distance to the nearest of its surface disks
     /// (a disk in the tangent plane at each of [`Goal::surface`]'s points) within 2.5 voxels of
     /// its voxel surface, the voxel-centre distance elsewhere and wherever the two differ by
-    /// more than [`AGREEMENT`]. Within a voxel of the surface the side is the disk's, further
+    /// more than `AGREEMENT`. Within a voxel of the surface the side is the disk's, further
     /// out the voxel-centre distance's.
     pub fn fine_signed_distance(&self, p: DVec3) -> f32 {
         let voxelized = self.voxelized_signed_distance(p);

@@ -115,7 +115,7 @@ pub struct FitOptions {
     /// ([`MAX_CONSTRAINTS`] for the iterative fit, [`naive::DEFAULT_CONSTRAINTS`] for the naive
     /// one). A safety limit, far above what the paper's models need at E 2 (500 to 800), that
     /// a fit reaching it reports ([`Termination::ConstraintLimit`]): the solve scales
-    /// (iteratively above [`rbf::DIRECT_MAX`] constraints), so the target E decides the count.
+    /// (iteratively above `DIRECT_MAX` constraints), so the target E decides the count.
     pub max_constraints: Option<usize>,
     /// At most this fraction of the current count is added in one iteration (at least
     /// `initial_constraints / 2`), greatest error first. The paper adds every candidate that

@@ -20,7 +20,7 @@ use crate::geometry::DVec3;
 use crate::mesh::Mesh;
 
 /// How far out along the normal the exterior constraints sit, in voxels.
-pub const NORMAL_OFFSET: f64 = 2.0;
+pub(crate) const NORMAL_OFFSET: f64 = 2.0;
 
 /// Fits `mesh` (voxelized as `goal`) by the naive method.
 pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit> {

@@ -536,6 +536,11 @@ pub struct LevelReport {
     pub solve_iterations: usize,
     /// The largest interpolation residual at its centres, relative to the largest value.
     pub solve_residual: f64,
+    /// The largest error at the goal's surface points before this level (with the levels
+    /// below it), in voxels.
+    pub max_error_before_voxels: f64,
+    /// The 99.9th percentile of those errors, in voxels.
+    pub p999_error_before_voxels: f64,
     /// The largest error at the goal's surface points with this level, in voxels.
     pub max_error_voxels: f64,
     /// The 99.9th percentile of those errors, in voxels.

@@ -35,7 +35,7 @@ const DISK_RADIUS: f64 = 0.5;
 
 /// How far from the goal's voxel surface (voxels) distances are measured to the disks; beyond,
 /// the voxel-centre distance stands.
-pub const REACH: f32 = 2.5;
+pub(crate) const REACH: f32 = 2.5;
 
 /// The normals of the goal's surface points and the points' cells; the points themselves stay
 /// the goal's ([`super::Goal::surface`]).

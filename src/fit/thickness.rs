@@ -50,30 +50,30 @@ pub struct Thickness {
 }
 
 /// How far (voxels, along each axis) from a point of the surface a deep voxel is looked for.
-pub const REACH: usize = 3;
+pub(crate) const REACH: usize = 3;
 
 /// A voxel this deep (voxels) inside the goal's solid: the surface near it is not thin.
-pub const DEEP: f32 = 2.0;
+pub(crate) const DEEP: f32 = 2.0;
 
 /// How far (voxels) from a thin point the other face of its wall is looked for.
-pub const PROBE: f64 = 6.0;
+pub(crate) const PROBE: f64 = 6.0;
 
 /// Above this fraction of the surface thin, the fit is refused: a hollow shell is thin all
 /// over, where solids with thin limbs that fit have less (measured in `docs/results.md`,
 /// "Where the thickness thresholds come from").
-pub const MAX_THIN: f64 = 0.5;
+pub(crate) const MAX_THIN: f64 = 0.5;
 
 /// Thin walls at least this thick (voxels) are fitted, however much of the surface they hold
 /// (the thinnest walls measured to fit and the thickest measured to fail lie on either side:
 /// `docs/results.md`, "Where the thickness thresholds come from").
-pub const MIN_WALL: f64 = 4.5;
+pub(crate) const MIN_WALL: f64 = 4.5;
 
 /// Above this fraction of the surface on walls under [`MIN_WALL`] voxels, a fit the grid holds
 /// still warns ([`Thickness::warning`]), below the share that is refused.
-pub const THIN_WARNING: f64 = 0.25;
+pub(crate) const THIN_WARNING: f64 = 0.25;
 
 /// The wall (voxels) the resolution a refusal names gives the thin walls.
-pub const HELD_WALL: f64 = 6.0;
+pub(crate) const HELD_WALL: f64 = 6.0;
 
 /// Points drawn on the surface.
 const SURFACE_POINTS: usize = 4096;

@@ -3,7 +3,7 @@
 //! voxelizer's inside decision (ray votes, the generalized winding number where they disagree).
 //!
 //! [`MeshQuery`] holds a bounding volume hierarchy over the triangles, leaves of at most
-//! [`LEAF`] triangles: each node split across the longest axis of its triangles' centroids
+//! `LEAF` triangles: each node split across the longest axis of its triangles' centroids
 //! where the surface area heuristic finds it cheapest (the children's box areas weighted by
 //! their triangles, over 16 bins), which makes tighter boxes than the median and so
 //! fewer nodes and triangles a query must open. The two subtrees of a node of many triangles
@@ -71,7 +71,7 @@ use glam::Vec3;
 pub mod grid;
 
 /// Most triangles in a leaf of the hierarchy.
-pub const LEAF: usize = 4;
+pub(crate) const LEAF: usize = 4;
 
 /// Bytes per triangle of a mesh that building a [`MeshQuery`] needs at its peak: the
 /// triangles' corners twice (as read from the mesh and in the hierarchy's order), their
@@ -371,7 +371,7 @@ impl MeshQuery {
     }
 
     /// [`MeshQuery::nearest`] of each point, in parallel. The points are taken in the
-    /// order of a space-filling curve (Morton order over their box), in runs of [`RUN`], and
+    /// order of a space-filling curve (Morton order over their box), in runs of `RUN`, and
     /// each search starts from the triangle nearest to the point before it in its run: a
     /// candidate at most the two points' distance apart from the answer, so the descent prunes
     /// from its first node. The distances are those of [`MeshQuery::nearest`]: the start
@@ -997,7 +997,7 @@ impl Frame {
 
 /// Queries that [`MeshQuery::nearest_all`] answers one after another, each searched from the
 /// answer before it (and that [`MeshQuery::inside`] answers in the same order).
-pub const RUN: usize = 64;
+pub(crate) const RUN: usize = 64;
 
 /// The answers for `points`, in their order: `answer(run, answers)` fills the answers of a
 /// run of [`RUN`] consecutive points along a Morton curve over their box (their indices), the

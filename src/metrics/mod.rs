@@ -240,7 +240,7 @@ impl BoundaryErrors {
 /// trilinear interpolation of the values, which is exact for a plane and within a small
 /// fraction of a voxel for surfaces curved on the scale of a few voxels. Where that estimate is
 /// unavailable (a flat stretch of values), further than `reach` voxels, or more than
-/// [`AGREEMENT`] voxels from the voxel signed distance, the trilinear interpolation of the
+/// `AGREEMENT` voxels from the voxel signed distance, the trilinear interpolation of the
 /// voxel signed distance is used instead.
 ///
 /// The last case is where the values dip towards the level without crossing it: where a thin
@@ -296,7 +296,7 @@ impl SubVoxel<'_> {
 /// How far (voxels) the first-order distance of [`SubVoxel`] may be from the voxel signed
 /// distance: a voxel centre's signed distance is within about half a voxel of its true distance to
 /// the surface, and trilinear interpolation between centres adds at most as much again.
-pub const AGREEMENT: f32 = 1.0;
+pub(crate) const AGREEMENT: f32 = 1.0;
 
 /// E, Ew and the RMS error of one current surface against the goal.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize)]

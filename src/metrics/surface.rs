@@ -8,7 +8,7 @@
 //! check of the two files measures.
 //!
 //! # Sampling
-//! [`SAMPLES`] points a surface, spread by area and stratified ([`spread`]): the triangles are
+//! `SAMPLES` points a surface, spread by area and stratified ([`spread`]): the triangles are
 //! taken in the order of their distance hierarchy, which keeps neighbours together, and laid
 //! end to end by area; the points sit at equal steps of area along them, from an offset drawn
 //! from the seed (systematic sampling), each uniform on its triangle. Every triangle, and so
@@ -34,7 +34,7 @@ use crate::mesh::area::{BLOCK, ByArea, on_triangle};
 use crate::mesh_query::MeshQuery;
 
 /// Points sampled on each surface.
-pub const SAMPLES: usize = 100_000;
+pub(crate) const SAMPLES: usize = 100_000;
 
 /// Distances from points sampled on one surface to another, in voxels of a grid.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -82,14 +82,14 @@ pub struct MeshDistances {
     #[serde(default)]
     pub interior: f64,
     /// From the points on the mesh that bound its solid (the interior ones left out) to the
-    /// model's surface; absent unless `interior` is above [`INTERIOR_NOTABLE`] (it is then
+    /// model's surface; absent unless `interior` is above `INTERIOR_NOTABLE` (it is then
     /// `mesh_to_model` to within the few samples that sharp creases can put inside).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solid_to_model: Option<DistanceSummary>,
 }
 
 /// How far `model` (a fitted model's polygonized surface) and the surface of `mesh_query` are
-/// apart, each way, from [`SAMPLES`] points spread over each with `seed`, in units of
+/// apart, each way, from `SAMPLES` points spread over each with `seed`, in units of
 /// `voxel_size` (see the module doc). `None` where either surface has no area.
 ///
 /// # Errors
@@ -133,7 +133,7 @@ pub fn between(
 /// The share of a mesh's surface inside its own solid above which [`MeshDistances`] measures
 /// the rest apart: a tenth of a percent, more than rounding puts there on a closed mesh's sharp
 /// creases (the bunny: 0.002%).
-pub const INTERIOR_NOTABLE: f64 = 0.001;
+pub(crate) const INTERIOR_NOTABLE: f64 = 0.001;
 
 /// How far off a face [`interior`] looks at each side of it, in voxels: far enough that
 /// rounding cannot put both points on the face, near enough that a wall a voxel thick has its
@@ -162,13 +162,13 @@ pub fn interior(query: &MeshQuery, samples: &[(DVec3, usize)], step: f64) -> Vec
 }
 
 /// Triangles whose points [`spread`] draws from one random stream.
-pub const SPREAD_CHUNK: usize = 1 << 14;
+pub(crate) const SPREAD_CHUNK: usize = 1 << 14;
 
 /// `n` points spread by area over `query`'s triangles in its hierarchy's order, stratified:
 /// the triangles laid end to end by area, a point at each of the areas `(offset + k) * A / n`
 /// for `k` below `n`, where `A` is the whole area and `offset` is drawn uniform in [0, 1) from
 /// `seed`, each point uniform on the triangle it falls in; the triangles' points in their
-/// order. Each chunk of [`SPREAD_CHUNK`] triangles draws from its own stream of `seed`, so the
+/// order. Each chunk of `SPREAD_CHUNK` triangles draws from its own stream of `seed`, so the
 /// points do not depend on the number of threads. `None` where the triangles have no area, or
 /// their area is not finite.
 pub fn spread(query: &MeshQuery, n: usize, seed: u64) -> Option<Vec<DVec3>> {

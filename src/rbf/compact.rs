@@ -61,7 +61,7 @@ fn wendland_slope(t: f64) -> f64 {
 
 /// The conjugate gradient iterations stop once the residual's norm is at most this fraction of
 /// the values' norm.
-pub const CG_TOLERANCE: f64 = 1e-10;
+pub(crate) const CG_TOLERANCE: f64 = 1e-10;
 
 /// The conjugate gradient iterations stop after this many in any case (the systems the fit
 /// makes need tens to a few hundred).
@@ -404,7 +404,7 @@ impl DetailLevel {
     /// radius `radius`: the weights solve the sparse system `A w = v`.
     ///
     /// # Errors
-    /// As [`DetailLevel::new`]; a system the iterations do not bring to [`CG_TOLERANCE`]
+    /// As [`DetailLevel::new`]; a system the iterations do not bring to `CG_TOLERANCE`
     /// (coincident centres).
     pub fn interpolate(
         radius: f64,

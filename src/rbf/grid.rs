@@ -13,17 +13,17 @@ use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
 
 /// The spacing of the coarse samples, in voxels.
-pub const STEP: usize = 4;
+pub(crate) const STEP: usize = 4;
 
 /// Cubes with a voxel this close to the goal boundary (in voxels) are always refined.
-pub const NEAR_GOAL: f32 = 8.0;
+pub(crate) const NEAR_GOAL: f32 = 8.0;
 
 /// The middle level's margin on its slope bound (see [`evaluate_on_grid`]).
-pub const SLOPE_SAFETY: f64 = 2.0;
+pub(crate) const SLOPE_SAFETY: f64 = 2.0;
 
 /// Grids with at least this many voxels along an axis start from a sparser lattice, every
 /// `2 STEP`th voxel (see [`evaluate_on_grid`]).
-pub const SPARSE_FROM: usize = 256;
+pub(crate) const SPARSE_FROM: usize = 256;
 
 /// The samples of one level along one axis: every `step`th voxel and the last one.
 struct Axis {

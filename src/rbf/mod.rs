@@ -19,7 +19,7 @@
 //! runtime parameter (2, 3 or 4) and the hot loops are specialized for each by const generics.
 //!
 //! ## Guarantees
-//! * Up to [`DIRECT_MAX`] constraints the solve is exact (a dense factorization in f64, by the
+//! * Up to `DIRECT_MAX` constraints the solve is exact (a dense factorization in f64, by the
 //!   null-space method and Cholesky, refined); above, it is iterative (FGMRES with a domain
 //!   decomposition preconditioner), to a residual of at most `1e-8` of the largest |value|, in
 //!   `O(n)` memory. Either way it is checked: [`Implicit::solve`] reports the largest
@@ -94,7 +94,7 @@ use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::geometry::DVec3;
 
-pub use compact::{CG_TOLERANCE, DetailLevel, GridIndex, SparseSolve, wendland};
+pub use compact::{DetailLevel, GridIndex, SparseSolve, wendland};
 pub use csv::{read_constraints, read_constraints_bytes, read_points, read_points_bytes};
 pub use grid::evaluate_on_grid;
 pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};
@@ -102,7 +102,7 @@ pub use kernel::Kernel;
 pub use lattice::Lattice;
 pub(crate) use lattice::{extent as lattice_extent, morton_order as lattice_order};
 pub use multiscale::MultiScale;
-pub use solve::{DIRECT_MAX, MAX_RESIDUAL, MIN_SEPARATION};
+pub(crate) use solve::DIRECT_MAX;
 
 /// What a constraint asks of the surface, read from the sign of its value (paper 3.1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]

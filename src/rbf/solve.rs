@@ -33,10 +33,10 @@ use super::{Constraint, DIMENSIONS, Implicit, Kernel, Normalization, dense, iter
 use crate::error::{Error, Result};
 
 /// Constraints closer than this, relative to the largest extent, count as coincident.
-pub const MIN_SEPARATION: f64 = 1e-9;
+pub(crate) const MIN_SEPARATION: f64 = 1e-9;
 
 /// The largest relative interpolation residual accepted before a system is declared singular.
-pub const MAX_RESIDUAL: f64 = 1e-6;
+pub(crate) const MAX_RESIDUAL: f64 = 1e-6;
 
 /// The smallest ratio of the least to the largest spread of the positions along any direction
 /// before they count as lying in a lower-dimensional flat (on a line in 2D, a plane in 3D).
@@ -47,14 +47,14 @@ const CONTEXT: &str = "constraints";
 /// Systems of up to this many constraints are solved by the dense factorization, larger ones
 /// iteratively: about where the iterative solve overtakes the dense one on samples of the
 /// bunny.
-pub const DIRECT_MAX: usize = 2500;
+pub(crate) const DIRECT_MAX: usize = 2500;
 
 impl Implicit {
     /// Solves for the variational implicit function interpolating `constraints` in `dim`
     /// dimensions (2, 3 or 4) with `kernel`: positive inside, negative outside.
     ///
     /// The system is solved in normalized coordinates (see the [module doc](crate::rbf) for
-    /// why that leaves the function unchanged), in f64 and in parallel: up to [`DIRECT_MAX`]
+    /// why that leaves the function unchanged), in f64 and in parallel: up to `DIRECT_MAX`
     /// constraints by a dense factorization (the null-space method and Cholesky) with
     /// iterative refinement, beyond by preconditioned FGMRES.
     /// [`Implicit::residual`] then holds the largest `|f(c_i) - h_i|` relative to the largest
@@ -62,9 +62,9 @@ impl Implicit {
     ///
     /// # Errors
     /// A constraint with the wrong number of coordinates or a NaN or infinite number; two
-    /// constraints closer than [`MIN_SEPARATION`] times the largest extent; fewer than `dim + 1`
+    /// constraints closer than `MIN_SEPARATION` times the largest extent; fewer than `dim + 1`
     /// affinely independent positions (the degree-one polynomial needs them); or a solve whose
-    /// residual exceeds [`MAX_RESIDUAL`].
+    /// residual exceeds `MAX_RESIDUAL`.
     pub fn solve(dim: usize, kernel: Kernel, constraints: &[Constraint]) -> Result<Implicit> {
         Implicit::solve_from(dim, kernel, constraints, None)
     }

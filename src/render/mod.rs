@@ -74,7 +74,7 @@ pub fn render_field<F: Field + ?Sized>(
 
 /// The fraction of a model's longest extent added to its bounds on every side before marching
 /// when the model has no fit grid, so that a surface bulging a little past them is not clipped.
-pub const MODEL_PAD: f64 = 0.05;
+pub(crate) const MODEL_PAD: f64 = 0.05;
 
 /// The default view of every picture: azimuth and elevation in degrees, a three-quarter view
 /// from the front right and a little above.
@@ -85,7 +85,7 @@ pub const DEFAULT_SIZE: [usize; 2] = [800, 600];
 
 /// The box a model's function is marched through: the grid it was fitted on (its bounds and
 /// margins, where the fit measured the surface), or else its bounds grown on every side by
-/// [`MODEL_PAD`] of their longest extent.
+/// `MODEL_PAD` of their longest extent.
 pub fn march_bounds(model: &Model) -> Aabb {
     match model.grid() {
         Some(grid) => grid_box(grid),
