@@ -182,8 +182,7 @@ impl FitSettings {
                 Ok(n)
             }
         };
-        let mut options = MeshFitOptions::default();
-        options.resolution = match (self.dims, self.resolution) {
+        let resolution = match (self.dims, self.resolution) {
             (Some(_), Some(_)) => {
                 return Err(Error::invalid(context, "give `resolution` or `dims`, not both"));
             }
@@ -191,6 +190,7 @@ impl FitSettings {
             (None, Some(n)) => Resolution::LongestAxis(n),
             (None, None) => Resolution::default(),
         };
+        let mut options = MeshFitOptions { resolution, ..MeshFitOptions::default() };
         if let Some(method) = &self.method {
             options.method = method.parse::<Method>().map_err(|e| e.in_context(context))?;
         }

@@ -1,7 +1,7 @@
-//! The library's public modules and constants, listed: a module made public, or one made private, is a
-//! deliberate change of the API and changes this list. Internals (the fit's surface disks, the
-//! solver's and evaluator's parts in `rbf`) and the paper's figures (drawn by the command) are
-//! not public.
+//! The library's public modules and constants, listed: a module or constant made public, or
+//! made private, is a deliberate change of the API and changes these lists. Internals (the
+//! fit's surface disks, the solver's and evaluator's parts in `rbf`, the fit's tuning values)
+//! and the paper's figures (drawn by the command) are not public.
 
 use std::fs;
 use std::path::{Path, PathBuf};
