@@ -190,6 +190,9 @@ impl FitSettings {
             (None, Some(n)) => Resolution::LongestAxis(n),
             (None, None) => Resolution::default(),
         };
+        if self.shell.is_some() && self.solid {
+            return Err(Error::invalid(context, "give `shell` or `solid`, not both"));
+        }
         let mut options = MeshFitOptions { resolution, ..MeshFitOptions::default() };
         if let Some(method) = &self.method {
             options.method = method.parse::<Method>().map_err(|e| e.in_context(context))?;
@@ -235,8 +238,8 @@ impl FitSettings {
     /// The settings of the file at `path`: TOML, or JSON for a name ending in `.json`.
     ///
     /// # Errors
-    /// A file that cannot be read or parsed, or holds a key that is not a setting (the error
-    /// names the key and the file).
+    /// A file that cannot be read or parsed, holds a key that is not a setting or a value out
+    /// of its range (the error names the key and the file).
     pub fn read(path: &Path) -> Result<FitSettings> {
         let source = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| Error::io(&source, e))?;
@@ -251,6 +254,12 @@ impl FitSettings {
         };
         // The file's keys as the file spells them, not as a front end words a setting.
         let why = |why: String| why.replace('`', "\"");
-        parsed.map_err(|e| Error::invalid(&source, format!("not a fit's settings: {}", why(e))))
+        let settings: FitSettings = parsed
+            .map_err(|e| Error::invalid(&source, format!("not a fit's settings: {}", why(e))))?;
+        match settings.options("options", MemoryLimit::default()) {
+            Err(Error::Invalid { message, .. }) => Err(Error::invalid(&source, why(message))),
+            Err(other) => Err(other),
+            Ok(_) => Ok(settings),
+        }
     }
 }

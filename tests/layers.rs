@@ -13,6 +13,10 @@
 //! facade, in a `use` or in code. Method calls are not paths, so a call through a method of a
 //! facade type is no edge; glob imports of the facade (`use super::*` from a child) name
 //! nothing and are no edge either. Doc links are comments and name nothing.
+//!
+//! Not followed (neither occurs in `src`): paths through the crate's re-exports from inside a
+//! nested module (`crate::Implicit` in a child of `fit`), and groups that open at the crate
+//! (`crate::{fit::x, rbf::y}`).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};

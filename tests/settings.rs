@@ -79,6 +79,9 @@ fn a_setting_out_of_range_is_named() {
     let mut shell = FitSettings::default();
     shell.shell = Some("thick".into());
     refused(shell, "`shell`");
+    let mut both = FitSettings::default();
+    (both.shell, both.solid) = (Some("2".into()), true);
+    refused(both, "`shell` or `solid`");
     let mut bytes = FitSettings::default();
     bytes.max_bytes = Some(0);
     refused(bytes, "`max_bytes`");
@@ -108,6 +111,12 @@ fn a_settings_file_is_read_and_an_unknown_key_named() {
     std::fs::write(&wrong_type, "levels = \"many\"\n").unwrap();
     let error = FitSettings::read(&wrong_type).unwrap_err().to_string();
     assert!(error.contains("type.toml") && error.contains("line 1"), "{error}");
+    // A value out of range is refused when the file is read, by its key as the file spells it.
+    let range = dir.path().join("range.toml");
+    std::fs::write(&range, "max_iterations = 0\n").unwrap();
+    let error = FitSettings::read(&range).unwrap_err().to_string();
+    assert!(error.starts_with(&range.display().to_string()), "{error}");
+    assert!(error.contains("\"max_iterations\"") && !error.contains("options"), "{error}");
     let missing = FitSettings::read(&dir.path().join("none.toml")).unwrap_err().to_string();
     assert!(missing.contains("none.toml"), "{missing}");
 }

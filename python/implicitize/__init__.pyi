@@ -10,8 +10,9 @@ _Path = Union[str, "os.PathLike[str]"]
 _Memory = Union[int, str, None]
 
 DEFAULTS: dict[str, Any]
-FIT_SETTINGS: list[dict[str, Any]]
 """The library's defaults of the keywords left at None."""
+FIT_SETTINGS: list[dict[str, Any]]
+"""Every setting of fit (name, unit, default as text or None, help), the library's table."""
 _Points = npt.ArrayLike
 _Vec3 = Tuple[float, float, float]
 

@@ -74,6 +74,25 @@ fn a_settings_file_is_read_under_the_flags_given() {
     assert_eq!(dims.iter().max(), Some(&48), "{dims:?}");
     assert!(report["iterations"].as_u64().unwrap() <= 2, "{}", report["iterations"]);
 
+    // The file's dims replace the command line's default resolution.
+    let grid = dir.path().join("grid.toml");
+    std::fs::write(&grid, "dims = [56, 30, 26]\nmax_iterations = 1\nlevels = 0\n").unwrap();
+    let out = implicitize()
+        .arg("fit")
+        .arg(triceratops())
+        .args(["--quiet", "--config"])
+        .arg(&grid)
+        .arg("-o")
+        .arg(&model)
+        .arg("--report")
+        .arg(dir.path().join("grid.json"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("grid.json")).unwrap()).unwrap();
+    assert_eq!(report["dims"], serde_json::json!([56, 30, 26]));
+
     let bad = dir.path().join("bad.toml");
     std::fs::write(&bad, "max_iteration = 2\n").unwrap();
     let out = implicitize()

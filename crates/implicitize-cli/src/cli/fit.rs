@@ -171,28 +171,40 @@ impl FitArgs {
             .collect();
     }
 
-    /// The settings of `--config`'s file with those given on the command line over them, or
-    /// the flags' alone without a file.
+    /// The flags' settings with `--config`'s file over those the command line did not give:
+    /// a value the file sets replaces the flag's default (the library's, or the demo's own),
+    /// a flag given on the command line wins over the file. Of two settings that exclude each
+    /// other (`resolution` and `dims`, `shell` and `solid`), the one the file sets clears the
+    /// other unless the command line gave it.
     ///
     /// # Errors
-    /// A settings file that cannot be read or holds an unknown key.
+    /// A settings file that cannot be read, holds an unknown key or a value out of range.
     pub fn merged_settings(&self) -> implicitize::Result<FitSettings> {
         let flags = self.settings();
         let Some(path) = &self.config else { return Ok(flags) };
-        let file = FitSettings::read(path)?;
-        let mut merged = serde_json::to_value(file).expect("settings serialize");
-        let flags = serde_json::to_value(flags).expect("settings serialize");
-        for name in &self.given {
-            merged[name] = flags[name].clone();
-            // The grid is one setting given two ways: the one on the command line wins.
+        let file = serde_json::to_value(FitSettings::read(path)?).expect("settings serialize");
+        let mut merged = serde_json::to_value(flags).expect("settings serialize");
+        let unset = serde_json::to_value(FitSettings::default()).expect("settings serialize");
+        let given = |name: &str| self.given.iter().any(|g| g == name);
+        for (name, value) in file.as_object().expect("settings are a map") {
+            let set = !(value.is_null() || value == &serde_json::Value::Bool(false));
+            if !set || given(name) {
+                continue;
+            }
             let other = match name.as_str() {
                 "resolution" => Some("dims"),
                 "dims" => Some("resolution"),
+                "shell" => Some("solid"),
+                "solid" => Some("shell"),
                 _ => None,
             };
             if let Some(other) = other {
-                merged[other] = serde_json::Value::Null;
+                if given(other) {
+                    continue;
+                }
+                merged[other] = unset[other].clone();
             }
+            merged[name] = value.clone();
         }
         Ok(serde_json::from_value(merged).expect("merged settings are settings"))
     }
@@ -203,9 +215,7 @@ impl FitArgs {
     /// A setting out of its range (a `--shell` that is not a thickness, ...), or a settings
     /// file that cannot be read.
     pub fn options(&self) -> implicitize::Result<MeshFitOptions> {
-        let context =
-            self.config.as_ref().map_or("options".to_string(), |p| p.display().to_string());
-        self.merged_settings()?.options(&context, memory_limit())
+        self.merged_settings()?.options("options", memory_limit())
     }
 }
 
@@ -265,7 +275,7 @@ impl FitObserver for Watch<'_> {
 
 /// Runs `implicitize fit`.
 pub fn run(args: &FitCommand, progress: Progress) -> anyhow::Result<()> {
-    if args.snapshots.is_some() && args.fit.method != Method::Iterative {
+    if args.snapshots.is_some() && args.fit.options()?.method != pipeline::Method::Iterative {
         anyhow::bail!("--snapshots draws the iterations of --method iterative only");
     }
     let mut outputs = FitOutputs::default();
