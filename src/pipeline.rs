@@ -952,7 +952,7 @@ impl<'a> Prepared<'a> {
                 let mut goal =
                     Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
                 if options.has_levels(&grid) {
-                    goal = with_mesh_points(goal, mesh, &grid, options.fit.seed);
+                    goal = with_mesh_points(goal, mesh, &query, &grid, &options.fit);
                 }
                 match options.fit.error_measure {
                     ErrorMeasure::SubVoxel => goal.with_mesh(query.clone()),
@@ -1078,7 +1078,8 @@ impl<'a> Prepared<'a> {
                 if fit::detail::stalled(&fitted.report, &self.grid, &options) {
                     // Detail levels go on where the paper's loop stalled: the better of the two.
                     let levelled = fit::detail::after_stall(&options);
-                    self.goal = with_mesh_points(self.goal, self.mesh, &self.grid, options.seed);
+                    self.goal =
+                        with_mesh_points(self.goal, self.mesh, &self.query, &self.grid, &options);
                     self.levels_estimate().check(self.limit, || None)?;
                     let again =
                         fit::detail::fit(&mut self.goal, &self.grid, &levelled, &mut on_iteration)
@@ -1159,14 +1160,29 @@ impl<'a> Prepared<'a> {
     }
 }
 
-/// `goal` with points on `mesh` for its detail levels ([`Goal::with_mesh_points`]): as many as
+/// `goal` with points on `mesh` for its detail levels ([`Goal::with_mesh_samples`]): as many as
 /// `grid`, the grid asked for, has surface voxels, kept where they agree with the goal within
-/// [`fit::MESH_AGREEMENT`] of `grid`'s voxels.
-fn with_mesh_points(goal: Goal, mesh: &Mesh, grid: &Grid, seed: u64) -> Goal {
+/// [`fit::MESH_AGREEMENT`] of `grid`'s voxels, once the slits narrower than a voxel are carved.
+fn with_mesh_points(
+    goal: Goal,
+    mesh: &Mesh,
+    query: &MeshQuery,
+    grid: &Grid,
+    fit: &FitOptions,
+) -> Goal {
     let scale = goal.grid().voxel_size / grid.voxel_size;
     let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
-    match metrics::surface::sample(mesh, n, seed) {
-        Some(points) => goal.with_mesh_points(points, fit::MESH_AGREEMENT * scale as f32),
+    // More points find a slit's walls than the levels fit: the first `n` of them are those of
+    // `n` points drawn alone.
+    match metrics::surface::sample_with_normals(mesh, n * fit::WALL_SAMPLES, fit.seed) {
+        Some(samples) => goal.with_mesh_samples(
+            samples,
+            n,
+            fit::MESH_AGREEMENT * scale as f32,
+            query,
+            fit::WALL_STEP * grid.voxel_size,
+            &fit.regularity,
+        ),
         None => goal,
     }
 }

@@ -7,9 +7,12 @@
 //! points  = points on the mesh where the goal agrees with it (Goal::with_mesh_points), as
 //!           many as the goal has surface points, and the goal's surface points (one per
 //!           boundary voxel) farther than a voxel from them; goal value 0
-//! band    = the voxels whose goal signed distance is between 1.5 and level 0's E + 2 voxels
+//!           (with the walls of slits narrower than a voxel, once the goal is carved: slit.rs)
+//! band    = the voxels whose goal signed distance is between 1.5 and level 0's E + 2 voxels,
+//!           and the voxels opened in the slits' gaps
 //! for k = 1, 2, ... while (max |r| > target or a band voxel has the wrong side)
-//!                   and k <= max_levels and rho_k >= min_radius:
+//!                   and k <= max_levels and rho_k >= min_radius
+//!                   (down to min_radius / 2 while an opened voxel is inside: gap_level):
 //!     r       = 0 - F at the points; sd_goal - F at the band voxels on the wrong side (voxels)
 //!     rho_k   = first_radius voxels of level 0 / 2^(k-1)
 //!     centres = points and wrong-side voxels where |r| is largest, greedily, each at least
@@ -334,24 +337,39 @@ fn add_levels(
     let mut reports = Vec::new();
     let target = f64::from(options.target_error);
     let mut stopped = LevelsStop::LevelLimit;
-    for k in 0..options.levels.max_levels {
+    for k in 0..=options.levels.max_levels {
         let radius = first_radius / f64::from(1u32 << k.min(30));
         let wrong = off.wrong_sides();
         let (max, p999) = error_figures(&residual);
-        if max <= target && wrong.is_empty() && !outside(&residual) {
+        // Met, but for slits' gaps still closed: levels go on for the gaps alone, down to half
+        // the least radius (see `gap_level`).
+        let closed_gaps = wrong.iter().filter(|w| w.2).count();
+        let met = max <= target && wrong.len() == closed_gaps && !outside(&residual);
+        let least = options.levels.min_radius * voxel;
+        let gap_radius = radius >= least / 2.0;
+        if met && (closed_gaps == 0 || !gap_radius) {
             stopped = LevelsStop::TargetMet;
             break;
         }
-        if radius < options.levels.min_radius * voxel {
+        if k == options.levels.max_levels {
+            break;
+        }
+        let gaps_only = met || radius < least;
+        if gaps_only && !(closed_gaps > 0 && gap_radius) {
             stopped = LevelsStop::SmallestRadius;
             break;
         }
         let level_clock = Instant::now();
-        let mut candidates = points.clone();
-        candidates.extend(wrong.iter().map(|w| w.0));
-        let mut errors = residual.clone();
-        errors.extend(wrong.iter().map(|w| w.1 * goal_scale));
-        let chosen = choose_centres(&candidates, &errors, radius, target, &options.levels);
+        let (candidates, errors, chosen) = if gaps_only {
+            gap_level(&points, &residual, &wrong, &off.gaps(), radius, goal_scale, &options.levels)
+        } else {
+            let mut candidates = points.clone();
+            candidates.extend(wrong.iter().map(|w| w.0));
+            let mut errors = residual.clone();
+            errors.extend(wrong.iter().map(|w| w.1 * goal_scale));
+            let chosen = choose_centres(&candidates, &errors, radius, target, &options.levels);
+            (candidates, errors, chosen)
+        };
         if chosen.is_empty() {
             stopped = LevelsStop::NoCentre;
             break;
@@ -389,6 +407,7 @@ fn add_levels(
     log.totals.misc += clock.elapsed().as_secs_f64();
     // The measure below evaluates the model over the goal's grid: the levels' data goes first.
     let data_points = points.len();
+    let closed_gaps = off.wrong_sides().iter().filter(|w| w.2).count();
     drop((off, points, residual, targets));
     let base_implicit = base.implicit;
     let shape = if levels.is_empty() {
@@ -410,6 +429,7 @@ fn add_levels(
         base_max_error_voxels: base_max,
         base_p999_error_voxels: base_p999,
         points: data_points,
+        slits: goal.slits().map(|slits| slits.report(closed_gaps)),
         levels: reports,
         stopped,
     };
@@ -419,9 +439,10 @@ fn add_levels(
 }
 
 /// The points the levels fit, mesh units: the points on the mesh where the goal agrees with it
-/// ([`Goal::mesh_points`]), and the goal's surface points farther than a voxel from all of
-/// them, where the voxelization closed a hole or filled a slit and the goal's surface holds;
-/// without points on the mesh, the goal's surface points.
+/// ([`Goal::mesh_points`], with the walls of the slits it was carved for), and the goal's
+/// surface points farther than a voxel from all of them, where the voxelization closed a hole
+/// or filled a slit and the goal's surface holds; without points on the mesh, the goal's
+/// surface points.
 fn data_points(goal: &Goal) -> Vec<DVec3> {
     let grid = goal.grid();
     let on_goal = goal.surface().par_iter().map(|&p| grid.to_world(p));
@@ -433,6 +454,49 @@ fn data_points(goal: &Goal) -> Vec<DVec3> {
     let mut points = on_mesh.to_vec();
     points.extend(away);
     points
+}
+
+/// What a level below [`LevelOptions::min_radius`] fits, down to half of it, while slits'
+/// gaps (`fit/slit.rs`) have voxels on the wrong side: the gaps' voxels (`gaps`, with the
+/// correction to the goal's signed distance) and the points within `radius` of one on the
+/// wrong side, the points at their residuals, so that the level leaves its neighbourhood where
+/// it should be. Its centres are the gaps' voxels first, then the points, greatest `|error|`
+/// first within each, spaced as [`choose_centres`] spaces them. Returns the candidates, their
+/// errors and the chosen ones.
+fn gap_level(
+    points: &[DVec3],
+    residual: &[f64],
+    wrong: &[(DVec3, f64, bool)],
+    gaps: &[(DVec3, f64)],
+    radius: f64,
+    goal_scale: f64,
+    options: &LevelOptions,
+) -> (Vec<DVec3>, Vec<f64>, Vec<usize>) {
+    let wrong_gaps: Vec<DVec3> = wrong.iter().filter(|w| w.2).map(|w| w.0).collect();
+    let near_gap = PointSet::new(radius, &wrong_gaps);
+    let (mut candidates, mut errors): (Vec<DVec3>, Vec<f64>) = gaps
+        .iter()
+        .filter(|(p, _)| near_gap.any_within(*p))
+        .map(|&(p, correction)| (p, correction * goal_scale))
+        .unzip();
+    let gaps = candidates.len();
+    let near_gap = PointSet::new(radius, &candidates);
+    let (near, near_errors): (Vec<DVec3>, Vec<f64>) = points
+        .par_iter()
+        .zip(residual)
+        .filter(|(p, _)| near_gap.any_within(**p))
+        .map(|(&p, &r)| (p, r))
+        .unzip();
+    candidates.extend(near);
+    errors.extend(near_errors);
+    let by_error = |mut order: Vec<usize>| {
+        order.sort_unstable_by(|&a, &b| errors[b].abs().total_cmp(&errors[a].abs()));
+        order
+    };
+    let mut order = by_error((0..gaps).collect());
+    order.extend(by_error((gaps..candidates.len()).collect()));
+    let chosen = spaced(&candidates, order, options.spacing * radius);
+    (candidates, errors, chosen)
 }
 
 /// Level 0: the loop of paper 5 on the coarsest goal of `goal`'s pyramid, with its own target
@@ -463,11 +527,14 @@ fn fit_base(
 }
 
 /// The voxels of the goal's grid whose goal signed distance is between [`SURFACE_BAND`] and a
-/// band's width: where the model must have the goal's side. Their model values (in voxels) are
+/// band's width, and the voxels opened in its slits' gaps (`fit/slit.rs`): where the model
+/// must have the goal's side. Their model values (in voxels) are
 /// kept up to date as levels are added, their positions computed when needed.
 struct OffSurface<'a> {
     goal: &'a Goal,
+    /// The band's voxels, then from `gaps` on the slits' opened voxels outside the band.
     voxels: Vec<u32>,
+    gaps: usize,
     values: Vec<f32>,
 }
 
@@ -478,12 +545,27 @@ const SURFACE_BAND: f32 = 1.5;
 impl<'a> OffSurface<'a> {
     fn new(goal: &'a Goal, base: &Implicit, band: f64) -> OffSurface<'a> {
         let band = band as f32;
-        let voxels: Vec<u32> = (0..goal.sd.data.len())
+        let in_band = |i: usize| (SURFACE_BAND..=band).contains(&goal.sd.data[i].abs());
+        let mut voxels: Vec<u32> = (0..goal.sd.data.len())
             .into_par_iter()
-            .filter(|&i| (SURFACE_BAND..=band).contains(&goal.sd.data[i].abs()))
+            .filter(|&i| in_band(i))
             .map(|i| i as u32)
             .collect();
-        let mut off = OffSurface { goal, voxels, values: Vec::new() };
+        let gaps = voxels.len();
+        if let Some(slits) = goal.slits() {
+            // A slit's gap is outside however near the surface: it is what a polygonizer on
+            // the grid sees of the slit.
+            let mut opened: Vec<u32> = slits
+                .carved
+                .iter()
+                .copied()
+                .filter(|&i| goal.sd.data[i as usize] < 0.0 && !in_band(i as usize))
+                .collect();
+            opened.sort_unstable();
+            opened.dedup();
+            voxels.extend(opened);
+        }
+        let mut off = OffSurface { goal, voxels, gaps, values: Vec::new() };
         let voxel = goal.grid().voxel_size;
         off.values = off
             .voxels
@@ -501,16 +583,28 @@ impl<'a> OffSurface<'a> {
         grid.position(grid.voxel(index as usize))
     }
 
-    /// The voxels where the model has the wrong side, with what it takes to correct them: the
-    /// goal's signed distance less the model's value, in voxels.
-    fn wrong_sides(&self) -> Vec<(DVec3, f64)> {
+    /// The voxels where the model has the wrong side, with what it takes to correct them (the
+    /// goal's signed distance less the model's value, in voxels) and whether they are in a
+    /// slit's gap.
+    fn wrong_sides(&self) -> Vec<(DVec3, f64, bool)> {
         self.voxels
             .par_iter()
             .zip(&self.values)
-            .filter_map(|(&i, &v)| {
+            .enumerate()
+            .filter_map(|(k, (&i, &v))| {
                 let sd = self.goal.sd.data[i as usize];
-                (v * sd <= 0.0).then(|| (self.position(i), f64::from(sd - v)))
+                (v * sd <= 0.0).then(|| (self.position(i), f64::from(sd - v), k >= self.gaps))
             })
+            .collect()
+    }
+
+    /// The slits' opened voxels, each with what takes the model to the goal's signed distance
+    /// there (as for [`OffSurface::wrong_sides`]).
+    fn gaps(&self) -> Vec<(DVec3, f64)> {
+        self.voxels[self.gaps..]
+            .par_iter()
+            .zip(&self.values[self.gaps..])
+            .map(|(&i, &v)| (self.position(i), f64::from(self.goal.sd.data[i as usize] - v)))
             .collect()
     }
 
@@ -556,7 +650,11 @@ fn choose_centres(
     let mut order: Vec<usize> =
         (0..points.len()).into_par_iter().filter(|&i| near_hot.any_within(points[i])).collect();
     order.par_sort_unstable_by(|&a, &b| residual[b].abs().total_cmp(&residual[a].abs()));
-    let spacing = options.spacing * radius;
+    spaced(points, order, options.spacing * radius)
+}
+
+/// The points of `order`, in that order, each kept unless one kept before is within `spacing`.
+fn spaced(points: &[DVec3], order: Vec<usize>, spacing: f64) -> Vec<usize> {
     let mut chosen = PointSet::new(spacing, &[]);
     let mut picked = Vec::new();
     for i in order {

@@ -2,10 +2,12 @@
 //! (4.2), its boundary voxels ∂f_goal and their radii of regularity (4.3), and, for the
 //! sub-voxel measure, the mesh's exact distance.
 
+use std::collections::HashSet;
 use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use super::slit;
 use super::surface::{self, SurfaceDisks};
 use crate::edt;
 use crate::geometry::DVec3;
@@ -39,6 +41,8 @@ pub struct Goal {
     /// Points on the mesh's triangles where the goal agrees with it, mesh units (see
     /// [`Goal::with_mesh_points`]).
     mesh_points: Option<Vec<DVec3>>,
+    /// The slits narrower than a voxel carved in the goal (see [`Goal::with_mesh_samples`]).
+    slits: Option<slit::Slits>,
 }
 
 /// A point sampled on the mesh is kept for the detail levels where the goal's sub-voxel
@@ -65,7 +69,17 @@ impl Goal {
         let surface: Vec<DVec3> =
             boundary.par_iter().map(|&v| edt::surface_point(&density, v)).collect();
         let disks = SurfaceDisks::new(&surface, &density);
-        Goal { density, sd, boundary, rreg, surface, disks, mesh: None, mesh_points: None }
+        Goal {
+            density,
+            sd,
+            boundary,
+            rreg,
+            surface,
+            disks,
+            mesh: None,
+            mesh_points: None,
+            slits: None,
+        }
     }
 
     /// This goal, with [`Goal::fine_signed_distance`] measuring the exact distance to `mesh`,
@@ -92,6 +106,50 @@ impl Goal {
             .filter(|&p| sub_voxel.signed_distance(grid.to_grid(p)).abs() <= agreement)
             .collect();
         Goal { mesh_points: Some(kept), ..self }
+    }
+
+    /// This goal with the first `points` of `samples` (points on its mesh, mesh units, with
+    /// their triangle's unit normal) for the detail levels, as [`Goal::with_mesh_points`] keeps
+    /// them, once the slits narrower than a voxel that the goal bridged are carved (see
+    /// `fit/slit.rs`): the slits' walls are found among all the samples the goal buries, with
+    /// `query` (the mesh's) at `step` (mesh units) off their triangles, the goal is made again
+    /// from its carved densities with `regularity`, and the walls are added to the points on
+    /// the mesh: the model's zero set should pass through them, and the gap between them is
+    /// outside.
+    pub fn with_mesh_samples(
+        self,
+        mut samples: Vec<(DVec3, DVec3)>,
+        points: usize,
+        agreement: f32,
+        query: &MeshQuery,
+        step: f64,
+        regularity: &RegularityOptions,
+    ) -> Goal {
+        let grid = *self.grid();
+        let to_goal = |p: DVec3| grid.to_grid(p);
+        let walls = slit::walls(&samples, &self.sub_voxel(), to_goal, agreement, query, step);
+        let share = walls.len() as f64 / samples.len() as f64;
+        samples.truncate(points);
+        if walls.is_empty() {
+            return self.with_mesh_points(samples.into_iter().map(|(p, _)| p).collect(), agreement);
+        }
+        let mesh = self.mesh.clone();
+        let mut density = self.density;
+        let carved = slit::carve(&mut density, &walls, to_goal);
+        let walls: Vec<DVec3> = walls.iter().map(|w| w.point).collect();
+        let on_wall: HashSet<[u64; 3]> = walls.iter().map(|&p| bits(p)).collect();
+        let others = samples.into_iter().map(|(p, _)| p).filter(|&p| !on_wall.contains(&bits(p)));
+        let goal =
+            Goal::from_density(density, regularity).with_mesh_points(others.collect(), agreement);
+        let mut mesh_points = goal.mesh_points.unwrap_or_default();
+        mesh_points.extend_from_slice(&walls);
+        let slits = slit::Slits { walls, share, carved };
+        Goal { slits: Some(slits), mesh, mesh_points: Some(mesh_points), ..goal }
+    }
+
+    /// The slits narrower than a voxel carved by [`Goal::with_mesh_samples`], if any.
+    pub(crate) fn slits(&self) -> Option<&slit::Slits> {
+        self.slits.as_ref()
     }
 
     /// The points of [`Goal::with_mesh_points`], if any.
@@ -283,6 +341,11 @@ impl Goal {
             .collect();
         Goal::from_density(Volume { grid, data }, &RegularityOptions::default())
     }
+}
+
+/// The bits of a point's coordinates, to find it again exactly.
+fn bits(p: DVec3) -> [u64; 3] {
+    p.to_array().map(f64::to_bits)
 }
 
 #[cfg(test)]

@@ -26,6 +26,7 @@ mod init;
 pub mod naive;
 mod refine;
 mod report;
+mod slit;
 mod surface;
 mod thickness;
 
@@ -49,6 +50,8 @@ pub use report::{
     BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, LevelReport,
     LevelsReport, LevelsStop, REPORT_VERSION, StalledLoop, TargetOutcome, Termination, Timings,
 };
+pub use slit::SlitReport;
+pub(crate) use slit::{WALL_SAMPLES, WALL_STEP};
 pub use thickness::Thickness;
 
 /// Every threshold of the fit, with the paper's values as defaults where the paper gives one.

@@ -495,12 +495,14 @@ impl FitReport {
         if let Some(d) = &self.mesh_distance {
             let _ = writeln!(
                 s,
-                "mesh -> model (voxels): max {:.2}, 99.9% {:.2}, mean {:.3}; \
-                 model -> mesh: max {:.2}, 99.9% {:.2}, mean {:.3}",
+                "mesh -> model (voxels): max {:.2}, 99.99% {:.2}, 99.9% {:.2}, mean {:.3}; \
+                 model -> mesh: max {:.2}, 99.99% {:.2}, 99.9% {:.2}, mean {:.3}",
                 d.mesh_to_model.max,
+                d.mesh_to_model.p99_99,
                 d.mesh_to_model.p99_9,
                 d.mesh_to_model.mean,
                 d.model_to_mesh.max,
+                d.model_to_mesh.p99_99,
                 d.model_to_mesh.p99_9,
                 d.model_to_mesh.mean
             );
@@ -569,6 +571,9 @@ pub struct LevelsReport {
     pub base_p999_error_voxels: f64,
     /// The goal's surface points the levels were fitted at.
     pub points: usize,
+    /// The slits narrower than a voxel the goal was carved for, if any (`fit/slit.rs`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub slits: Option<super::SlitReport>,
     /// The band, in voxels of the full grid, of the goal's signed distance in which the side
     /// of the model is checked: level 0's sub-voxel E plus 2 voxels.
     pub band_voxels: f64,
@@ -625,5 +630,22 @@ impl LevelsReport {
             );
         }
         let _ = writeln!(s, "detail levels stopped: {}", self.stopped);
+        if let Some(slits) = &self.slits {
+            let [lo, hi] = slits.bounds;
+            let _ = writeln!(
+                s,
+                "slits narrower than a voxel: {:.3}% of the mesh on their walls, {} voxels opened \
+                 ({} left inside), within ({:.4}, {:.4}, {:.4}) - ({:.4}, {:.4}, {:.4})",
+                100.0 * slits.share,
+                slits.carved_voxels,
+                slits.closed_voxels,
+                lo[0],
+                lo[1],
+                lo[2],
+                hi[0],
+                hi[1],
+                hi[2]
+            );
+        }
     }
 }

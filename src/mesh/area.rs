@@ -41,7 +41,15 @@ impl ByArea {
 
     /// A point uniform on the surface: a triangle chosen by area, a point uniform on it.
     pub(crate) fn point(&self, rng: &mut ChaCha8Rng) -> DVec3 {
-        on_triangle(&self.corners[self.triangles.sample(rng)], rng)
+        self.point_and_normal(rng).0
+    }
+
+    /// [`ByArea::point`] (the same draws) and its triangle's unit normal, by the right-hand
+    /// rule of the triangle's corners (zero for a triangle without a normal).
+    pub(crate) fn point_and_normal(&self, rng: &mut ChaCha8Rng) -> (DVec3, DVec3) {
+        let corners = &self.corners[self.triangles.sample(rng)];
+        let [a, b, c] = *corners;
+        (on_triangle(corners, rng), (b - a).cross(c - a).normalize_or_zero())
     }
 }
 

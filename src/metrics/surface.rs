@@ -44,6 +44,9 @@ pub struct DistanceSummary {
     /// The 99.9th percentile of the distances.
     #[serde(rename = "p99.9")]
     pub p99_9: f64,
+    /// The 99.99th percentile of the distances (the tenth largest of `SAMPLES`).
+    #[serde(rename = "p99.99", default)]
+    pub p99_99: f64,
     /// The mean distance.
     pub mean: f64,
     /// The sample at the largest distance, mesh units: where the surfaces are farthest apart.
@@ -64,6 +67,7 @@ impl DistanceSummary {
             max: scaled.iter().copied().fold(f64::NEG_INFINITY, f64::max),
             mean: scaled.iter().sum::<f64>() / scaled.len() as f64,
             p99_9: super::percentile(&mut scaled, 0.999),
+            p99_99: super::percentile(&mut scaled, 0.9999),
             farthest,
         }
     }
@@ -212,13 +216,19 @@ fn spread_on(query: &MeshQuery, n: usize, seed: u64) -> Option<Vec<(DVec3, usize
 /// drawn from its own stream of `seed`; `None` where the triangles have no area (or their
 /// indices are out of range, which the distance query refuses).
 pub fn sample(mesh: &Mesh, n: usize, seed: u64) -> Option<Vec<DVec3>> {
+    Some(sample_with_normals(mesh, n, seed)?.into_iter().map(|(p, _)| p).collect())
+}
+
+/// [`sample`]'s points (the same draws), each with its triangle's unit normal by the
+/// right-hand rule of its corners (zero for a triangle without a normal).
+pub fn sample_with_normals(mesh: &Mesh, n: usize, seed: u64) -> Option<Vec<(DVec3, DVec3)>> {
     let surface = ByArea::of(mesh)?;
     let blocks = n.div_ceil(BLOCK);
     let points = (0..blocks).into_par_iter().flat_map_iter(|block| {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(block as u64);
         let count = BLOCK.min(n - block * BLOCK);
-        (0..count).map(|_| surface.point(&mut rng)).collect::<Vec<_>>()
+        (0..count).map(|_| surface.point_and_normal(&mut rng)).collect::<Vec<_>>()
     });
     Some(points.collect())
 }
