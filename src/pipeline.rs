@@ -1074,9 +1074,20 @@ impl<'a> Prepared<'a> {
             }
             (Method::Iterative, _) => {
                 let mut on_iteration = on_iteration;
-                let fitted = fit::fit(&self.goal, &options, &mut on_iteration).map_err(thin)?;
+                // A loop that needs many constraints hands over to detail levels.
+                let loop_limit = fit::detail::loop_limit(&self.grid, &self.options.fit, allowed);
+                let mut loop_options = options.clone();
+                loop_options.max_constraints = loop_limit.or(options.max_constraints);
+                let mut fitted =
+                    fit::fit(&self.goal, &loop_options, &mut on_iteration).map_err(thin)?;
+                if let Some(limit) = loop_limit
+                    && fitted.report.termination == (Termination::ConstraintLimit { limit })
+                {
+                    fitted.report.termination = Termination::LoopLimit { constraints: limit };
+                }
                 if fit::detail::stalled(&fitted.report, &self.grid, &options) {
-                    // Detail levels go on where the paper's loop stalled: the better of the two.
+                    // Detail levels go on where the paper's loop stalled: the better of the two,
+                    // by E, or the one that meets the target.
                     let levelled = fit::detail::after_stall(&options);
                     self.goal =
                         with_mesh_points(self.goal, self.mesh, &self.query, &self.grid, &options);
@@ -1085,7 +1096,11 @@ impl<'a> Prepared<'a> {
                         fit::detail::fit(&mut self.goal, &self.grid, &levelled, &mut on_iteration)
                             .map_err(thin)?;
                     let measure = options.error_measure;
-                    if again.report.error_by(measure) < fitted.report.error_by(measure) {
+                    let target = options.target_error;
+                    let met = |r: &FitReport| r.target_outcome(measure, target).met;
+                    if again.report.error_by(measure) < fitted.report.error_by(measure)
+                        || (met(&again.report) && !met(&fitted.report))
+                    {
                         let mut report = again.report;
                         report.timings_s.add(&fitted.report.timings_s);
                         report.stalled_loop = Some(fit::StalledLoop {

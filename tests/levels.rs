@@ -302,3 +302,27 @@ fn a_fit_that_stalls_goes_on_with_detail_levels() {
     assert!(without.report.stalled_loop.is_none() && without.report.levels.is_none());
     assert_eq!(without.report.max_error_voxels, stalled.max_error_voxels);
 }
+
+/// A paper's loop that reaches `loop_constraints` above its target (here 150 on the
+/// triceratops at 128 voxels to a target of 1) hands over to detail levels: the report says the
+/// loop stopped there and the fit with levels meets the target. A constraint limit the caller
+/// sets is the loop's own: the loop stops at it, and nothing is tried again.
+#[test]
+fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
+    let (mesh, _) = implicitize::mesh::read(implicitize_test_support::data::triceratops()).unwrap();
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(128);
+    options.fit.target_error = 1.0;
+    options.fit.levels.loop_constraints = 150;
+    let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
+    let stalled = fitted.report.stalled_loop.expect("the loop hands over at 150 constraints");
+    assert_eq!(stalled.termination, Termination::LoopLimit { constraints: 150 });
+    assert!(fitted.report.levels.is_some(), "the fit with levels is kept");
+    let target = fitted.report.target.expect("a fit of a mesh has a target outcome");
+    assert!(target.met, "{target:?}");
+
+    options.fit.max_constraints = Some(150);
+    let limited = pipeline::fit_mesh(&mesh, &options).unwrap();
+    assert_eq!(limited.report.termination, Termination::ConstraintLimit { limit: 150 });
+    assert!(limited.report.stalled_loop.is_none() && limited.report.levels.is_none());
+}

@@ -83,6 +83,12 @@ pub struct LevelOptions {
     pub first_radius: f64,
     /// No level whose support radius would be below this, in voxels of the full grid.
     pub min_radius: f64,
+    /// On a grid below `min_axis` whose fit could go on with levels ([`after_stall`]), the
+    /// paper's loop stops at this many constraints above its target and the fit goes on with
+    /// levels, unless a constraint limit is set (`FitOptions::max_constraints`): the paper's
+    /// models reach their target with fewer than 800, and a loop past this many needs thousands
+    /// of them, each iteration a pass over the whole grid.
+    pub loop_constraints: usize,
     /// Centres of a level are at least this fraction of its support radius apart.
     pub spacing: f64,
     /// A point's error is worth correcting above this fraction of the target.
@@ -95,6 +101,7 @@ impl Default for LevelOptions {
             max_levels: 5,
             min_axis: 384,
             max_goal_axis: 512,
+            loop_constraints: 1_000,
             base_target_error: 2.0,
             first_radius: 4.0,
             min_radius: 1.5,
@@ -124,21 +131,39 @@ pub fn applies(grid: &Grid, options: &FitOptions) -> bool {
 }
 
 /// Whether a fit of the paper's loop that ended with `report` stalled above its target (no
-/// improvement, no candidate) on a grid where detail levels could go on: levels on, and a
-/// pyramid below the grid (see [`after_stall`]).
+/// improvement, no candidate, or [`LevelOptions::loop_constraints`] reached: see
+/// [`loop_limit`]) on a grid where detail levels could go on: levels on, and a pyramid below
+/// the grid (see [`after_stall`]).
 pub fn stalled(report: &FitReport, grid: &Grid, options: &FitOptions) -> bool {
-    let stalled =
-        matches!(report.termination, Termination::NoImprovement { .. } | Termination::NoCandidate);
+    let stalled = matches!(
+        report.termination,
+        Termination::NoImprovement { .. }
+            | Termination::NoCandidate
+            | Termination::LoopLimit { .. }
+    );
     stalled
         && report.error_by(options.error_measure) > options.target_error
         && applies(grid, &after_stall(options))
 }
 
+/// The constraints at which the paper's loop on `grid` hands over to detail levels
+/// ([`LevelOptions::loop_constraints`]), where it does: no constraint limit set, levels could
+/// go on ([`after_stall`]), and fewer constraints than `allowed` (the most whose solve fits in
+/// memory).
+pub fn loop_limit(grid: &Grid, options: &FitOptions, allowed: usize) -> Option<usize> {
+    let limit = options.levels.loop_constraints;
+    (options.max_constraints.is_none() && limit < allowed && applies(grid, &after_stall(options)))
+        .then_some(limit)
+}
+
 /// The options of the fit with detail levels that follows a fit of the paper's loop that
-/// [`stalled`] on a grid below [`LevelOptions::min_axis`]: levels from any grid with a pyramid.
+/// [`stalled`] on a grid below [`LevelOptions::min_axis`]: levels from any grid with a pyramid,
+/// and a level 0 of at most [`LevelOptions::loop_constraints`] constraints (the levels go on
+/// from there, where the loop would need thousands).
 pub fn after_stall(options: &FitOptions) -> FitOptions {
     let mut options = options.clone();
     options.levels.min_axis = 0;
+    options.max_constraints = Some(options.constraint_limit().min(options.levels.loop_constraints));
     options
 }
 

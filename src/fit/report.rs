@@ -214,6 +214,12 @@ pub enum Termination {
         /// The limit.
         limit: usize,
     },
+    /// The paper's loop reached [`super::LevelOptions::loop_constraints`] above its target, and
+    /// the fit went on with detail levels (see [`super::detail::loop_limit`]).
+    LoopLimit {
+        /// The constraints.
+        constraints: usize,
+    },
     /// The constraints reached the most whose solve fits in the memory limit (see
     /// [`crate::pipeline::Prepared::fit`]).
     MemoryLimit {
@@ -247,6 +253,10 @@ impl std::fmt::Display for Termination {
             Termination::ConstraintLimit { limit } => {
                 write!(f, "reached the limit of {limit} constraints (`max_constraints`)")
             }
+            Termination::LoopLimit { constraints } => write!(
+                f,
+                "reached {constraints} constraints above the target, where detail levels go on"
+            ),
             Termination::MemoryLimit { constraints } => write!(
                 f,
                 "reached the {constraints} constraints whose solve fits in the memory limit \
