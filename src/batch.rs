@@ -373,12 +373,15 @@ fn ok_entry(job: &Job, fitted: &Fitted, origin: Origin, seconds: f64) -> Entry {
     }
 }
 
-/// Why the fit of `report` stopped, in words: its loop's termination, then its levels'.
+/// Why the fit of `report` stopped, in words: its loop's termination (the paper's loop's, where
+/// it stalled and detail levels went on, then level 0's), then its levels'.
 fn stopped(report: &crate::fit::FitReport) -> String {
-    match &report.levels {
-        Some(levels) => format!("{}; detail levels: {}", report.termination, levels.stopped),
-        None => report.termination.to_string(),
-    }
+    let stalled = report
+        .stalled_loop
+        .as_ref()
+        .map(|s| format!("the paper's loop: {}; level 0: ", s.termination));
+    let levels = report.levels.as_ref().map(|l| format!("; detail levels: {}", l.stopped));
+    format!("{}{}{}", stalled.unwrap_or_default(), report.termination, levels.unwrap_or_default())
 }
 
 impl Entry {

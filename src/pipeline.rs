@@ -1092,9 +1092,16 @@ impl<'a> Prepared<'a> {
                     self.goal =
                         with_mesh_points(self.goal, self.mesh, &self.query, &self.grid, &options);
                     self.levels_estimate().check(self.limit, || None)?;
-                    let again =
+                    let mut again =
                         fit::detail::fit(&mut self.goal, &self.grid, &levelled, &mut on_iteration)
                             .map_err(thin)?;
+                    // Level 0 stops where the loop would have handed over (`after_stall`).
+                    let limit = levelled.levels.loop_constraints;
+                    if levelled.max_constraints == Some(limit)
+                        && again.report.termination == (Termination::ConstraintLimit { limit })
+                    {
+                        again.report.termination = Termination::LoopLimit { constraints: limit };
+                    }
                     let measure = options.error_measure;
                     let target = options.target_error;
                     let met = |r: &FitReport| r.target_outcome(measure, target).met;

@@ -16,9 +16,10 @@
 //! A carved slit is a gap of one or two voxels in the goal where the mesh has one narrower than
 //! a voxel; the walls stay within about a voxel of the goal's surface. The detail levels put
 //! the model's zero set through the walls and keep the opened voxels outside, so that the gap
-//! is there at the grid's voxel centres, where a polygonizer on the grid sees it. A face with the solid on
-//! both sides (an interior face, or two parts pressed together) is not a wall: nothing is
-//! carved there. Only fits with detail levels have points on the mesh to find walls with.
+//! is there at the grid's voxel centres, where a polygonizer on the grid sees it. A face with
+//! the solid on both sides (an interior face, or two parts pressed together) is not a wall:
+//! nothing is carved there. Only fits with detail levels have points on the mesh to find walls
+//! with.
 
 use rayon::prelude::*;
 use serde::Serialize;
