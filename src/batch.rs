@@ -38,7 +38,7 @@ use crate::error::{Error, FrontEnd, Result};
 use crate::pipeline::{self, FitOutputs, Fitted, MeshFitOptions, MeshSource, SampleOptions};
 
 /// The extensions of the mesh files a folder is searched for (any case).
-pub const MESH_EXTENSIONS: [&str; 4] = ["obj", "ply", "stl", "off"];
+pub(crate) const MESH_EXTENSIONS: [&str; 4] = ["obj", "ply", "stl", "off"];
 
 /// The manifest's file name in the output folder.
 pub const MANIFEST: &str = "manifest.jsonl";
@@ -172,7 +172,7 @@ pub struct Entry {
 }
 
 /// The mesh files `inputs` name, in order and without repeats: files as they are, folders
-/// searched (recursively, in name order) for files with a [`MESH_EXTENSIONS`] extension, and
+/// searched (recursively, in name order) for files with an extension of a mesh (obj, ply, stl or off), and
 /// `@LIST` files read for one path a line (relative to the list's folder; blank lines and
 /// lines starting with `#` skipped). A file that does not exist is kept: its conversion fails
 /// and says so.

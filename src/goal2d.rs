@@ -68,10 +68,10 @@ impl Default for ImageOptions {
 
 /// The most bytes of pixels a PNG's bytes can decode to: deflate expands at most 1032 times;
 /// a file that declares more cannot hold its pixels, and is refused before decoding.
-pub const MAX_INFLATION: u64 = 1032;
+pub(crate) const MAX_INFLATION: u64 = 1032;
 
 /// The largest blur accepted, in pixels.
-pub const MAX_BLUR: f64 = 100.0;
+pub(crate) const MAX_BLUR: f64 = 100.0;
 
 impl Luminance {
     /// Reads a PNG file as luminance.
@@ -86,7 +86,7 @@ impl Luminance {
     /// Reads the bytes of a PNG file as luminance; `path` names it in messages.
     ///
     /// Fails as [`Luminance::read_png`], and also, before decoding, when the pixels its header
-    /// declares could not come from so few bytes (more than [`MAX_INFLATION`] times the file).
+    /// declares could not come from so few bytes (more than 1,032 times the file, the most deflate can inflate).
     pub fn read_png_bytes(bytes: &[u8], path: &Path) -> Result<Luminance> {
         let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
         decoder.set_transformations(png::Transformations::EXPAND);

@@ -117,7 +117,7 @@ impl Estimate {
     /// `sdf --exact` of a mesh of `triangles` triangles on a grid of `dims` voxels: the
     /// volume's grids (the exact values replace the densities in place; a band's flags take
     /// two bytes a voxel while it is found) and the distance query's hierarchy
-    /// ([`crate::mesh_query::BYTES_PER_TRIANGLE`] a triangle).
+    /// (222 bytes a triangle).
     pub fn exact_volume(dims: [usize; 3], triangles: usize) -> Estimate {
         let grid = Estimate::grid(dims, VOLUME_PER_VOXEL, triangles);
         let query = crate::mesh_query::BYTES_PER_TRIANGLE as u64;
@@ -165,7 +165,7 @@ impl Estimate {
 
     /// Distances from `points` points to a mesh of `triangles` triangles
     /// ([`crate::pipeline::distance`]), `signed` or not: unsigned distances need the hierarchy
-    /// alone ([`crate::mesh_query::BYTES_PER_TRIANGLE`] a triangle), not the sign's lines and
+    /// alone (222 bytes a triangle), not the sign's lines and
     /// winding number (measured: 228 bytes a triangle all told, reading the mesh included, for
     /// `implicitize distance --unsigned` of 10 points to a polygonized bunny of 22.8 million
     /// triangles, 5.2 GB at the peak).

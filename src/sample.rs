@@ -18,7 +18,7 @@
 //!   positive inside as the voxelizer decides it (rays along the three axes, the generalized
 //!   winding number where they disagree), as [`MeshQuery::signed`] gives it.
 //! * **Deterministic:** the same mesh, `n` and options give the same samples bit for bit, on
-//!   any number of threads: each block of [`BLOCK`] points draws from its own ChaCha8 stream
+//!   any number of threads: each block of 2^14 points draws from its own ChaCha8 stream
 //!   of the seed.
 //! * **DeepSDF's layout** ([`Samples::deepsdf`]): float32 rows `x, y, z, sdf` with DeepSDF's
 //!   sign, negative inside; `pos` holds the rows whose DeepSDF value is above 0 (outside) and
@@ -107,7 +107,7 @@ impl SampleOptions {
 /// along each axis.
 pub(crate) const PADDING: f64 = 0.1;
 
-pub use crate::mesh::area::BLOCK;
+pub(crate) use crate::mesh::area::BLOCK;
 
 /// Points around a mesh and its signed distance at each.
 #[derive(Debug, Clone, PartialEq)]

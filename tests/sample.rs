@@ -179,7 +179,8 @@ fn deepsdfs_layout_is_split_by_its_sign() {
 #[test]
 fn the_same_seed_gives_the_same_samples_on_any_number_of_threads() {
     let mesh = sphere(DVec3::ZERO, 1.0, 12, 24);
-    let n = 3 * sample::BLOCK + 17;
+    // Three blocks of 2^14 points (each its own random stream) and a part of a fourth.
+    let n = 3 * (1 << 14) + 17;
     let first = draw(&mesh, n, &options(&[0.01, 0.001], 0.3, 11));
     let one_thread = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let again = one_thread.install(|| draw(&mesh, n, &options(&[0.01, 0.001], 0.3, 11)));

@@ -14,7 +14,7 @@ use crate::geometry::DVec3;
 use crate::mesh::Mesh;
 
 /// Points drawn from one random stream.
-pub const BLOCK: usize = 1 << 14;
+pub(crate) const BLOCK: usize = 1 << 14;
 
 /// A mesh's surface to draw points on, uniformly by area: the triangles' corners and an alias
 /// table of their areas (Walker's method, [`WeightedAliasIndex`]), which draws a triangle in

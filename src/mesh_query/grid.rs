@@ -7,7 +7,7 @@
 //! signed distance ([`crate::edt::signed_distance`]) and of the fit, voxel for voxel.
 //!
 //! # Grid coherence
-//! The voxels are measured in blocks of [`BLOCK`]³ (slabs of blocks in parallel, rayon). A
+//! The voxels are measured in blocks of 4³ (slabs of blocks in parallel, rayon). A
 //! block gathers once, from the hierarchy, every triangle that can be nearest to one of its
 //! voxels: within `d(c) + 2ρ` of its centre `c` (ρ: the farthest voxel centre from `c`),
 //! since `|d(p) - d(c)| <= |p - c|` for any distance. Each gathered triangle `T` keeps its
@@ -62,7 +62,7 @@ pub fn signed_distance(query: &MeshQuery, density: Volume<f32>, band: Option<f64
 }
 
 /// Voxels along each axis of a block measured together (see the module doc).
-pub const BLOCK: usize = 4;
+pub(crate) const BLOCK: usize = 4;
 
 /// R of the module doc: the voxels along each axis from a touched cell that a voxel within
 /// `band` voxels of the surface can be.

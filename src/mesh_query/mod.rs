@@ -82,7 +82,7 @@ pub(crate) const LEAF: usize = 4;
 /// first sign ([`MeshQuery::inside`]) builds: the re-orientation and its tables (those of
 /// reading a mesh, [`crate::memory`]), the lines' grids and boxes and the winding number's
 /// tree.
-pub const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
+pub(crate) const BYTES_PER_TRIANGLE: usize = 2 * size_of::<[DVec3; 3]>()
     + size_of::<Item>()
     + size_of::<u32>()
     + 2 * size_of::<bool>()

@@ -212,7 +212,7 @@ fn spread_on(query: &MeshQuery, n: usize, seed: u64) -> Option<Vec<(DVec3, usize
 }
 
 /// `n` points on `mesh`'s triangles, each on a triangle drawn with probability proportional to
-/// its area and uniform on it, in parallel blocks of [`crate::mesh::area::BLOCK`] points, each
+/// its area and uniform on it, in parallel blocks of 2^14 points, each
 /// drawn from its own stream of `seed`; `None` where the triangles have no area (or their
 /// indices are out of range, which the distance query refuses).
 pub fn sample(mesh: &Mesh, n: usize, seed: u64) -> Option<Vec<DVec3>> {

@@ -108,7 +108,7 @@ pub const VERSION: u32 = 2;
 const VERSION_WITHOUT_LEVELS: u32 = 1;
 
 /// The `sign` field: the sign convention of every value the model gives.
-pub const SIGN: &str = "inside positive, outside negative";
+pub(crate) const SIGN: &str = "inside positive, outside negative";
 
 pub use binary::{MAGIC as BINARY_MAGIC, VERSION as BINARY_VERSION};
 
