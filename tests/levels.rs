@@ -4,6 +4,7 @@
 
 use std::sync::OnceLock;
 
+use implicitize::batch::{self, BatchOptions};
 use implicitize::fit::{FitOptions, LevelsStop, Termination};
 use implicitize::morph::{self, Morph, MorphOptions};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions};
@@ -320,6 +321,22 @@ fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
     assert!(fitted.report.levels.is_some(), "the fit with levels is kept");
     let target = fitted.report.target.expect("a fit of a mesh has a target outcome");
     assert!(target.met, "{target:?}");
+    // The batch manifest says it: the paper's loop, then level 0, then the levels.
+    let dir = tempfile::tempdir().unwrap();
+    let job = batch::Job {
+        input: implicitize_test_support::data::triceratops().into(),
+        name: "triceratops".into(),
+    };
+    let mut batch_options = BatchOptions::default();
+    batch_options.fit = options.clone();
+    let entry = batch::convert(&job, dir.path(), &batch_options);
+    let stopped = entry.stopped.expect("a converted mesh says why its fit stopped");
+    assert!(
+        stopped.starts_with("the paper's loop: reached 150 constraints above the target")
+            && stopped.contains("; level 0: ")
+            && stopped.ends_with("detail levels: the target was met"),
+        "{stopped}"
+    );
 
     options.fit.max_constraints = Some(150);
     let limited = pipeline::fit_mesh(&mesh, &options).unwrap();
