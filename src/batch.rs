@@ -387,11 +387,13 @@ fn stopped(report: &crate::fit::FitReport) -> String {
 impl Entry {
     /// How far apart the model and the mesh are at worst, in voxels: the larger of the two
     /// 99.9th percentiles, the mesh's taken over the faces that bound its solid where some lie
-    /// inside it; `None` for a failure.
+    /// inside it, the model's to the surface of the solid an open mesh's winding number
+    /// defines; `None` for a failure.
     pub fn worst_p999(&self) -> Option<f64> {
         let d = self.mesh_distance?;
         let mesh_side = d.solid_to_model.unwrap_or(d.mesh_to_model);
-        Some(mesh_side.p99_9.max(d.model_to_mesh.p99_9))
+        let model_side = d.model_to_solid.unwrap_or(d.model_to_mesh);
+        Some(mesh_side.p99_9.max(model_side.p99_9))
     }
 }
 

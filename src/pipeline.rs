@@ -952,7 +952,8 @@ impl<'a> Prepared<'a> {
                 let mut goal =
                     Goal::from_signed_distance(voxelized.density, sd, &options.fit.regularity);
                 if options.has_levels(&grid) {
-                    goal = with_mesh_points(goal, mesh, &query, &grid, &options.fit);
+                    let inside = &voxelized.inside;
+                    goal = with_mesh_points(goal, mesh, &query, &grid, &options.fit, inside);
                 }
                 match options.fit.error_measure {
                     ErrorMeasure::SubVoxel => goal.with_mesh(query.clone()),
@@ -1046,6 +1047,10 @@ impl<'a> Prepared<'a> {
         // polygonized from the goal's densities (which a fit with levels may free).
         let thickened =
             self.options.shell.map(|_| crate::polygonize::polygonize(self.goal.density(), 0.5));
+        // An open mesh's solid is the one its winding number defines: the model is measured
+        // against that solid's surface too (the goal's densities polygonized at 1/2).
+        let open_solid = (self.options.shell.is_none() && self.inside.winding_near_half > 0.0)
+            .then(|| crate::polygonize::polygonize(self.goal.density(), 0.5));
         let mut options = self.options.fit.clone();
         let requested = match self.options.method {
             Method::Iterative => options.constraint_limit(),
@@ -1089,8 +1094,14 @@ impl<'a> Prepared<'a> {
                     // Detail levels go on where the paper's loop stalled: the better of the two,
                     // by E, or the one that meets the target.
                     let levelled = fit::detail::after_stall(&options);
-                    self.goal =
-                        with_mesh_points(self.goal, self.mesh, &self.query, &self.grid, &options);
+                    self.goal = with_mesh_points(
+                        self.goal,
+                        self.mesh,
+                        &self.query,
+                        &self.grid,
+                        &options,
+                        &self.inside,
+                    );
                     self.levels_estimate().check(self.limit, || None)?;
                     let mut again =
                         fit::detail::fit(&mut self.goal, &self.grid, &levelled, &mut on_iteration)
@@ -1144,12 +1155,13 @@ impl<'a> Prepared<'a> {
         drop(self.goal);
         let model = Model::from_shape(shape, self.bounds, Some(grid));
         let surface = crate::polygonize::polygonize_field(&model, &grid);
+        let (voxel, seed, solid) = (grid.voxel_size, options.seed, open_solid.as_ref());
         report.mesh_distance = match &thickened {
-            None => metrics::surface::between(&self.query, &surface, grid.voxel_size, options.seed),
+            None => metrics::surface::between(&self.query, &surface, solid, voxel, seed),
             Some(thickened) => {
                 let query =
                     MeshQuery::new(thickened).map_err(|e| e.in_context("the thickened surface"))?;
-                metrics::surface::between(&query, &surface, grid.voxel_size, options.seed)
+                metrics::surface::between(&query, &surface, None, voxel, seed)
             }
         }
         .map_err(|e| e.in_context("the model's polygonized surface"))?;
@@ -1185,22 +1197,32 @@ impl<'a> Prepared<'a> {
 /// `goal` with points on `mesh` for its detail levels ([`Goal::with_mesh_samples`]): as many as
 /// `grid`, the grid asked for, has surface voxels, kept where they agree with the goal within
 /// [`fit::MESH_AGREEMENT`] of `grid`'s voxels, once the slits narrower than a voxel are carved.
+/// Slits are looked for only where the mesh's inside (decided as `inside`) is nowhere a guess:
+/// near an open mesh's holes the two sides of a face can differ by a guess, not by a gap.
 fn with_mesh_points(
     goal: Goal,
     mesh: &Mesh,
     query: &MeshQuery,
     grid: &Grid,
     fit: &FitOptions,
+    inside: &Inside,
 ) -> Goal {
     let scale = goal.grid().voxel_size / grid.voxel_size;
     let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
+    let agreement = fit::MESH_AGREEMENT * scale as f32;
+    if inside.winding_near_half > 0.0 {
+        return match metrics::surface::sample(mesh, n, fit.seed) {
+            Some(points) => goal.with_mesh_points(points, agreement),
+            None => goal,
+        };
+    }
     // More points find a slit's walls than the levels fit: the first `n` of them are those of
     // `n` points drawn alone.
     match metrics::surface::sample_with_normals(mesh, n * fit::WALL_SAMPLES, fit.seed) {
         Some(samples) => goal.with_mesh_samples(
             samples,
             n,
-            fit::MESH_AGREEMENT * scale as f32,
+            agreement,
             query,
             fit::WALL_STEP * grid.voxel_size,
             &fit.regularity,

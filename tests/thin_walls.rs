@@ -77,6 +77,11 @@ fn a_mesh_open_over_much_of_the_grid_is_refused_unless_asked_for() {
     solid.fit.max_iterations = 2;
     let fitted = pipeline::fit_mesh(&hemisphere, &solid).unwrap();
     assert!(fitted.warnings().iter().any(|w| w.contains("the mesh is open")));
+    // The model of the guessed solid is measured against that solid's surface too: the model's
+    // cap over the opening is far from the mesh, not from the solid.
+    let d = fitted.report.mesh_distance.expect("the report measures the model");
+    let to_solid = d.model_to_solid.expect("an open mesh's model is measured against its solid");
+    assert!(to_solid.p99_9 < d.model_to_mesh.p99_9 / 2.0, "{to_solid:?} {:?}", d.model_to_mesh);
     let mut shell = options();
     shell.shell = Some(Shell::Voxels(2.0));
     shell.fit.max_iterations = 2;

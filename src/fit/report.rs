@@ -516,6 +516,14 @@ impl FitReport {
                 d.model_to_mesh.p99_9,
                 d.model_to_mesh.mean
             );
+            if let Some(solid) = &d.model_to_solid {
+                let _ = writeln!(
+                    s,
+                    "model -> the solid the open mesh's winding number defines (voxels): max \
+                     {:.2}, 99.9% {:.2}, mean {:.3}",
+                    solid.max, solid.p99_9, solid.mean
+                );
+            }
             if let Some(solid) = &d.solid_to_model {
                 let _ = writeln!(
                     s,

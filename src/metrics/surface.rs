@@ -90,6 +90,12 @@ pub struct MeshDistances {
     /// `mesh_to_model` to within the few samples that sharp creases can put inside).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solid_to_model: Option<DistanceSummary>,
+    /// From the model's surface to `solid` of [`between`], the surface of the solid an open
+    /// mesh's winding number defines (the goal's densities polygonized at 1/2), the same points
+    /// as `model_to_mesh`: an open mesh has no surface where its solid is capped, a model of
+    /// the solid has.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_to_solid: Option<DistanceSummary>,
 }
 
 /// How far `model` (a fitted model's polygonized surface) and the surface of `mesh_query` are
@@ -101,6 +107,7 @@ pub struct MeshDistances {
 pub fn between(
     mesh_query: &MeshQuery,
     model: &Mesh,
+    solid: Option<&Mesh>,
     voxel_size: f64,
     seed: u64,
 ) -> Result<Option<MeshDistances>> {
@@ -126,11 +133,23 @@ pub fn between(
                 .unzip();
             DistanceSummary::of(&distances, &points, voxel_size)
         });
+    let model_to_mesh =
+        DistanceSummary::of(&mesh_query.distances(&on_model), &on_model, voxel_size);
+    // The model's query is freed before the solid's is built: one at a time.
+    drop(model_query);
+    let model_to_solid = match solid {
+        Some(solid) if !solid.triangles.is_empty() => {
+            let distances = MeshQuery::new(solid)?.distances(&on_model);
+            Some(DistanceSummary::of(&distances, &on_model, voxel_size))
+        }
+        _ => None,
+    };
     Ok(Some(MeshDistances {
         mesh_to_model: DistanceSummary::of(&to_model, &on_mesh, voxel_size),
-        model_to_mesh: DistanceSummary::of(&mesh_query.distances(&on_model), &on_model, voxel_size),
+        model_to_mesh,
         interior: interior_share,
         solid_to_model,
+        model_to_solid,
     }))
 }
 
