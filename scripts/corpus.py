@@ -280,8 +280,10 @@ def fit_one(binary: str, path: Path, out: Path, args) -> dict:
 def row(name: str, kind: str, result: dict) -> dict:
     entry = result["entry"]
     d = entry.get("mesh_distance") or {}
-    mesh_side = d.get("solid_to_model") or d.get("mesh_to_model") or {}
-    # An open mesh's model is judged against the solid its winding number defines.
+    # An open mesh's model is judged against the solid its winding number defines, both ways;
+    # a mesh with interior faces by the faces that bound its solid.
+    mesh_side = (d.get("solid_to_model") or d.get("bounding_to_model") or d.get("mesh_to_model")
+                 or {})
     model_side = d.get("model_to_solid") or d.get("model_to_mesh") or {}
     target = entry.get("target") or {}
     thickness = entry.get("thickness") or {}

@@ -374,12 +374,14 @@ fn ok_entry(job: &Job, fitted: &Fitted, origin: Origin, seconds: f64) -> Entry {
 }
 
 /// Why the fit of `report` stopped, in words: its loop's termination (the paper's loop's, where
-/// it stalled and detail levels went on, then level 0's), then its levels'.
+/// detail levels replaced it, then level 0's), then its levels'.
 fn stopped(report: &crate::fit::FitReport) -> String {
-    let stalled = report
-        .stalled_loop
-        .as_ref()
-        .map(|s| format!("the paper's loop: {}; level 0: ", s.termination));
+    let stalled = report.paper_loop.as_ref().map(|first| {
+        let far = first.mesh_p999_voxels.map(|far| {
+            format!(", 0.1% of the mesh's points farther than {far:.2} voxels from its model")
+        });
+        format!("the paper's loop: {}{}; level 0: ", first.termination, far.unwrap_or_default())
+    });
     let levels = report.levels.as_ref().map(|l| format!("; detail levels: {}", l.stopped));
     format!("{}{}{}", stalled.unwrap_or_default(), report.termination, levels.unwrap_or_default())
 }
@@ -391,9 +393,7 @@ impl Entry {
     /// defines; `None` for a failure.
     pub fn worst_p999(&self) -> Option<f64> {
         let d = self.mesh_distance?;
-        let mesh_side = d.solid_to_model.unwrap_or(d.mesh_to_model);
-        let model_side = d.model_to_solid.unwrap_or(d.model_to_mesh);
-        Some(mesh_side.p99_9.max(model_side.p99_9))
+        Some(d.to_model().p99_9.max(d.from_model().p99_9))
     }
 }
 

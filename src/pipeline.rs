@@ -1090,10 +1090,9 @@ impl<'a> Prepared<'a> {
                 {
                     fitted.report.termination = Termination::LoopLimit { constraints: limit };
                 }
-                if fit::detail::stalled(&fitted.report, &self.grid, &options) {
-                    // Detail levels go on where the paper's loop stalled: the better of the two,
-                    // by E, or the one that meets the target.
-                    let levelled = fit::detail::after_stall(&options);
+                let stalled = fit::detail::stalled(&fitted.report, &self.grid, &options);
+                let checks_mesh = fit::detail::checks_mesh(&fitted.report, &self.grid, &options);
+                if stalled || checks_mesh {
                     self.goal = with_mesh_points(
                         self.goal,
                         self.mesh,
@@ -1102,6 +1101,20 @@ impl<'a> Prepared<'a> {
                         &options,
                         &self.inside,
                     );
+                }
+                // Where the loop met its target, how far the mesh's points lie from its model
+                // (voxels), if farther than the target allows.
+                let slack = options.levels.mesh_slack;
+                let far = checks_mesh
+                    .then(|| fit::detail::mesh_distance(&self.goal, &fitted.implicit, &self.grid))
+                    .flatten()
+                    .filter(|&far| far > f64::from(options.target_error) + slack);
+                if stalled || far.is_some() {
+                    // Detail levels go on where the paper's loop stalled (the better of the two,
+                    // by E, or the one that meets the target) or left the mesh's points farther
+                    // than the target allows (the levels' fit, where it meets the target and
+                    // brings them nearer).
+                    let levelled = fit::detail::after_stall(&options);
                     self.levels_estimate().check(self.limit, || None)?;
                     let mut again =
                         fit::detail::fit(&mut self.goal, &self.grid, &levelled, &mut on_iteration)
@@ -1116,15 +1129,25 @@ impl<'a> Prepared<'a> {
                     let measure = options.error_measure;
                     let target = options.target_error;
                     let met = |r: &FitReport| r.target_outcome(measure, target).met;
-                    if again.report.error_by(measure) < fitted.report.error_by(measure)
-                        || (met(&again.report) && !met(&fitted.report))
-                    {
+                    let better = match far {
+                        Some(far) => {
+                            met(&again.report)
+                                && fit::detail::mesh_distance(&self.goal, &again.shape, &self.grid)
+                                    .is_some_and(|levelled| levelled < far)
+                        }
+                        None => {
+                            again.report.error_by(measure) < fitted.report.error_by(measure)
+                                || (met(&again.report) && !met(&fitted.report))
+                        }
+                    };
+                    if better {
                         let mut report = again.report;
                         report.timings_s.add(&fitted.report.timings_s);
-                        report.stalled_loop = Some(fit::StalledLoop {
+                        report.paper_loop = Some(fit::PaperLoop {
                             termination: fitted.report.termination,
                             iterations: fitted.report.iterations,
                             max_error_voxels: fitted.report.max_error_voxels,
+                            mesh_p999_voxels: far,
                         });
                         (again.shape, report)
                     } else {
@@ -1300,13 +1323,17 @@ pub fn above_target(report: &FitReport) -> Option<String> {
 /// out; with how close the rest of the mesh is to the model.
 pub fn interior_surface(report: &FitReport) -> Option<String> {
     let d = report.mesh_distance?;
-    let rest = d.solid_to_model?;
+    let rest = d.bounding_to_model?;
+    let solid = d.solid_to_model.map(|solid| {
+        format!(", the surface of the solid its winding number defines within {:.2}", solid.p99_9)
+    });
     Some(format!(
         "{:.1}% of the mesh's surface lies inside its own solid (faces with the solid on both \
          sides, such as overlapping parts), which no solid's surface holds; the rest of the mesh \
-         lies within {:.2} voxels of the model (99.9%)",
+         lies within {:.2} voxels of the model (99.9%){}",
         100.0 * d.interior,
-        rest.p99_9
+        rest.p99_9,
+        solid.unwrap_or_default()
     ))
 }
 

@@ -158,7 +158,7 @@ fn faces_inside_the_mesh_s_own_solid_are_counted_and_left_out() {
     let fitted = fit_mesh(&both, 32, &FitOptions::default());
     let d = fitted.report.mesh_distance.expect("measured");
     assert!((d.interior - 0.25).abs() < 0.01, "{d:?}");
-    let rest = d.solid_to_model.expect("the rest is measured apart");
+    let rest = d.bounding_to_model.expect("the rest is measured apart");
     assert!(rest.p99_9 <= 2.0 && rest.max < d.mesh_to_model.max, "{d:?}");
     let warnings = fitted.warnings();
     let share =
@@ -166,7 +166,7 @@ fn faces_inside_the_mesh_s_own_solid_are_counted_and_left_out() {
     assert!(warnings.iter().any(|w| w.starts_with(&share)), "{warnings:?}");
     let alone = fit_mesh(&a, 32, &FitOptions::default());
     let d = alone.report.mesh_distance.expect("measured");
-    assert!(d.interior < 0.001 && d.solid_to_model.is_none(), "{d:?}");
+    assert!(d.interior < 0.001 && d.bounding_to_model.is_none(), "{d:?}");
 }
 
 /// A fit whose target is set on the sub-voxel E, measured against the mesh's exact distance,

@@ -289,7 +289,7 @@ fn a_fit_that_stalls_goes_on_with_detail_levels() {
     options.fit.patience = 3;
     options.fit.target_error = 1.0;
     let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
-    let stalled = fitted.report.stalled_loop.expect("the loop stalls with a patience of three");
+    let stalled = fitted.report.paper_loop.expect("the loop stalls with a patience of three");
     assert!(
         matches!(stalled.termination, Termination::NoImprovement { .. } | Termination::NoCandidate),
         "{stalled:?}"
@@ -300,7 +300,7 @@ fn a_fit_that_stalls_goes_on_with_detail_levels() {
 
     options.fit.levels.max_levels = 0;
     let without = pipeline::fit_mesh(&mesh, &options).unwrap();
-    assert!(without.report.stalled_loop.is_none() && without.report.levels.is_none());
+    assert!(without.report.paper_loop.is_none() && without.report.levels.is_none());
     assert_eq!(without.report.max_error_voxels, stalled.max_error_voxels);
 }
 
@@ -316,7 +316,7 @@ fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
     options.fit.target_error = 1.0;
     options.fit.levels.loop_constraints = 150;
     let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
-    let stalled = fitted.report.stalled_loop.expect("the loop hands over at 150 constraints");
+    let stalled = fitted.report.paper_loop.expect("the loop hands over at 150 constraints");
     assert_eq!(stalled.termination, Termination::LoopLimit { constraints: 150 });
     assert!(fitted.report.levels.is_some(), "the fit with levels is kept");
     let target = fitted.report.target.expect("a fit of a mesh has a target outcome");
@@ -341,5 +341,45 @@ fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
     options.fit.max_constraints = Some(150);
     let limited = pipeline::fit_mesh(&mesh, &options).unwrap();
     assert_eq!(limited.report.termination, Termination::ConstraintLimit { limit: 150 });
-    assert!(limited.report.stalled_loop.is_none() && limited.report.levels.is_none());
+    assert!(limited.report.paper_loop.is_none() && limited.report.levels.is_none());
+}
+
+/// A regular tetrahedron, outward.
+fn tetrahedron() -> Mesh {
+    let corners = [[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0]];
+    Mesh {
+        vertices: corners.iter().map(|&c| implicitize::DVec3::from_array(c)).collect(),
+        triangles: vec![[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]],
+    }
+}
+
+/// A paper's loop that meets its target E while its sharp corners are rounded off farther than
+/// the target plus `mesh_slack` (a tetrahedron at 128 voxels: E is measured on the voxels,
+/// which round the corners too; here the slack is a quarter of a voxel) is fitted again with
+/// detail levels, which fit the mesh's points: the report says how far the loop's model was,
+/// and 99.9% of the mesh lies within the target of the model kept, beyond it before. With a
+/// slack the loop's model is within, the loop's model is kept as it was.
+#[test]
+fn a_fit_whose_corners_lie_beyond_the_target_goes_on_with_detail_levels() {
+    let mesh = tetrahedron();
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(128);
+    options.fit.levels.mesh_slack = 5.0;
+    let within = pipeline::fit_mesh(&mesh, &options).unwrap();
+    assert!(within.report.paper_loop.is_none() && within.report.levels.is_none());
+    let target = f64::from(options.fit.target_error);
+    assert!(within.report.max_error_voxels <= options.fit.target_error);
+    let before = within.report.mesh_distance.expect("measured").to_model().p99_9;
+    assert!(before > target, "the corners lie {before} voxels from the loop's model");
+
+    options.fit.levels.mesh_slack = 0.25;
+    let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
+    let first = fitted.report.paper_loop.expect("the loop's model is replaced");
+    assert!(matches!(first.termination, Termination::TargetError { .. }), "{first:?}");
+    let far = first.mesh_p999_voxels.expect("the loop met its target: how far the mesh was");
+    assert!(far > target + 0.25, "{far}");
+    assert!(fitted.report.levels.is_some() && fitted.report.target.is_some_and(|t| t.met));
+    let after = fitted.report.mesh_distance.expect("measured").to_model().p99_9;
+    assert!(after < target, "the mesh lies {after} voxels from the model, {before} before");
+    assert!(fitted.report.table("t").contains("0.1% of the mesh's points farther than"));
 }

@@ -82,6 +82,10 @@ fn a_mesh_open_over_much_of_the_grid_is_refused_unless_asked_for() {
     let d = fitted.report.mesh_distance.expect("the report measures the model");
     let to_solid = d.model_to_solid.expect("an open mesh's model is measured against its solid");
     assert!(to_solid.p99_9 < d.model_to_mesh.p99_9 / 2.0, "{to_solid:?} {:?}", d.model_to_mesh);
+    // And the solid's surface (the dome and its cap) against the model: within the corpus's
+    // bar both ways, where the model's cap lies 19 voxels from the mesh.
+    let from_solid = d.solid_to_model.expect("and the solid's surface against the model");
+    assert!(from_solid.p99_9 < 2.5 && to_solid.p99_9 < 2.5, "{from_solid:?} {to_solid:?}");
     let mut shell = options();
     shell.shell = Some(Shell::Voxels(2.0));
     shell.fit.max_iterations = 2;

@@ -89,6 +89,12 @@ pub struct LevelOptions {
     /// models reach their target with fewer than 800, and a loop past this many needs thousands
     /// of them, each iteration a pass over the whole grid.
     pub loop_constraints: usize,
+    /// On a grid below `min_axis` whose fit could go on with levels ([`after_stall`]), a fit of
+    /// the paper's loop that met its target is fitted again with levels when the points on the
+    /// mesh where the goal agrees with it lie farther than the target plus this many voxels
+    /// from its zero set at the 99.9th percentile ([`mesh_distance`]): sharp corners and thin
+    /// spikes that the goal's voxels round off, which E on the voxels does not see.
+    pub mesh_slack: f64,
     /// Centres of a level are at least this fraction of its support radius apart.
     pub spacing: f64,
     /// A point's error is worth correcting above this fraction of the target.
@@ -102,6 +108,7 @@ impl Default for LevelOptions {
             min_axis: 384,
             max_goal_axis: 512,
             loop_constraints: 1_000,
+            mesh_slack: 0.5,
             base_target_error: 2.0,
             first_radius: 4.0,
             min_radius: 1.5,
@@ -154,6 +161,31 @@ pub fn loop_limit(grid: &Grid, options: &FitOptions, allowed: usize) -> Option<u
     let limit = options.levels.loop_constraints;
     (options.max_constraints.is_none() && limit < allowed && applies(grid, &after_stall(options)))
         .then_some(limit)
+}
+
+/// Whether a fit of the paper's loop on `grid` that ended with `report` and met its target
+/// could be checked against the mesh's points and go on with levels where it is farther from
+/// them than the target allows ([`LevelOptions::mesh_slack`]): levels could go on
+/// ([`after_stall`]) and the grid has none of its own.
+pub fn checks_mesh(report: &FitReport, grid: &Grid, options: &FitOptions) -> bool {
+    let met = report.error_by(options.error_measure) <= options.target_error;
+    met && !applies(grid, options) && applies(grid, &after_stall(options))
+}
+
+/// The 99.9th percentile of how far the zero set of `field` lies from the goal's points on
+/// the mesh ([`Goal::mesh_points`]), in voxels of `grid`, to first order: the value over the
+/// gradient's length at each point (the value alone, as the levels' residual, misses a
+/// rounded-off sharp corner, where the slope is steeper than one); `None` without such points.
+pub fn mesh_distance(goal: &Goal, field: &(impl Field + Sync), grid: &Grid) -> Option<f64> {
+    let points = goal.mesh_points().filter(|p| !p.is_empty())?;
+    let mut distances: Vec<f64> = points
+        .par_iter()
+        .map(|&p| {
+            let slope = field.gradient(p).length().max(f64::MIN_POSITIVE);
+            (field.value(p) / slope / grid.voxel_size).abs()
+        })
+        .collect();
+    Some(crate::metrics::percentile(&mut distances, 0.999))
 }
 
 /// The options of the fit with detail levels that follows a fit of the paper's loop that

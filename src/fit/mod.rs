@@ -48,7 +48,7 @@ pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
 pub use report::{
     BudgetTrial, ByteBudget, ConstraintCounts, FitReport, GridLevel, IterationReport, LevelReport,
-    LevelsReport, LevelsStop, REPORT_VERSION, StalledLoop, TargetOutcome, Termination, Timings,
+    LevelsReport, LevelsStop, PaperLoop, REPORT_VERSION, TargetOutcome, Termination, Timings,
 };
 pub use slit::SlitReport;
 pub(crate) use slit::{WALL_SAMPLES, WALL_STEP};
@@ -372,7 +372,7 @@ fn report_of(
         mesh_distance: None,
         byte_budget: None,
         target: None,
-        stalled_loop: None,
+        paper_loop: None,
     }
 }
 

@@ -60,7 +60,7 @@ pub fn fit(mesh: &Mesh, goal: &Goal, options: &FitOptions) -> Result<super::Fit>
         mesh_distance: None,
         byte_budget: None,
         target: None,
-        stalled_loop: None,
+        paper_loop: None,
     };
     Ok(super::Fit { implicit, report })
 }

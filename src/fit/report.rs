@@ -270,7 +270,7 @@ impl std::fmt::Display for Termination {
 
 /// The version of the report's format ([`FitReport::version`]): raised when a field changes
 /// meaning or goes away; fields may be added within a version.
-pub const REPORT_VERSION: u32 = 1;
+pub const REPORT_VERSION: u32 = 2;
 
 /// The whole fit's report (written as JSON by `implicitize fit --report`).
 #[derive(Debug, Clone, Serialize)]
@@ -338,22 +338,28 @@ pub struct FitReport {
     /// measure; `None` for a goal given as densities.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target: Option<TargetOutcome>,
-    /// For a fit of the paper's loop that stalled above its target on a grid without detail
-    /// levels, and was fitted again with them (see [`super::detail::stalled`]): how that first
-    /// fit ended; absent otherwise.
+    /// For a fit of the paper's loop on a grid without detail levels that was fitted again with
+    /// them and replaced (it stalled above its target, [`super::detail::stalled`], or left the
+    /// mesh's points farther than the target allows, [`super::detail::checks_mesh`]): how that
+    /// first fit ended; absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub stalled_loop: Option<StalledLoop>,
+    pub paper_loop: Option<PaperLoop>,
 }
 
-/// How a fit of the paper's loop that stalled above its target ended.
+/// How a fit of the paper's loop that detail levels replaced ended.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct StalledLoop {
+pub struct PaperLoop {
     /// Why it stopped.
     pub termination: Termination,
     /// Its iterations.
     pub iterations: usize,
     /// Its E, voxels.
     pub max_error_voxels: f32,
+    /// Where it met its target: the 99.9th percentile of its distance to the mesh's points
+    /// ([`super::detail::mesh_distance`]), voxels, above the target plus
+    /// [`super::LevelOptions::mesh_slack`]; absent where it stalled.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mesh_p999_voxels: Option<f64>,
 }
 
 /// The target E a fit was asked for and what it reached.
@@ -484,12 +490,18 @@ impl FitReport {
                 levels.write_levels(&mut s);
             }
             Some(levels) => {
-                if let Some(stalled) = &self.stalled_loop {
+                if let Some(first) = &self.paper_loop {
+                    let far = first.mesh_p999_voxels.map(|far| {
+                        format!(", 0.1% of the mesh's points farther than {far:.2} voxels from it")
+                    });
                     let _ = writeln!(
                         s,
-                        "the paper's loop stopped at E {:.2} after {} iterations ({}); fitted \
+                        "the paper's loop stopped at E {:.2} after {} iterations ({}){}; fitted \
                          again with detail levels:",
-                        stalled.max_error_voxels, stalled.iterations, stalled.termination
+                        first.max_error_voxels,
+                        first.iterations,
+                        first.termination,
+                        far.unwrap_or_default()
                     );
                 }
                 let [bx, by, bz] = levels.base_dims;
@@ -516,15 +528,16 @@ impl FitReport {
                 d.model_to_mesh.p99_9,
                 d.model_to_mesh.mean
             );
-            if let Some(solid) = &d.model_to_solid {
+            if let (Some(to), Some(from)) = (&d.solid_to_model, &d.model_to_solid) {
                 let _ = writeln!(
                     s,
-                    "model -> the solid the open mesh's winding number defines (voxels): max \
-                     {:.2}, 99.9% {:.2}, mean {:.3}",
-                    solid.max, solid.p99_9, solid.mean
+                    "the solid the open mesh's winding number defines -> model (voxels): max \
+                     {:.2}, 99.9% {:.2}, mean {:.3}; model -> that solid: max {:.2}, 99.9% \
+                     {:.2}, mean {:.3}",
+                    to.max, to.p99_9, to.mean, from.max, from.p99_9, from.mean
                 );
             }
-            if let Some(solid) = &d.solid_to_model {
+            if let Some(solid) = &d.bounding_to_model {
                 let _ = writeln!(
                     s,
                     "{:.1}% of the mesh lies inside its own solid; the rest -> model (voxels): \
@@ -634,6 +647,12 @@ impl std::fmt::Display for LevelsStop {
 }
 
 impl LevelsReport {
+    /// The 99.9th percentile of the residual at the levels' points after the last level (level
+    /// 0's where there is none), voxels.
+    pub fn p999(&self) -> f64 {
+        self.levels.last().map_or(self.base_p999_error_voxels, |l| l.p999_error_voxels)
+    }
+
     /// One line of the report's table a detail level.
     pub(super) fn write_levels(&self, s: &mut String) {
         use std::fmt::Write;

@@ -89,13 +89,34 @@ pub struct MeshDistances {
     /// model's surface; absent unless `interior` is above `INTERIOR_NOTABLE` (it is then
     /// `mesh_to_model` to within the few samples that sharp creases can put inside).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bounding_to_model: Option<DistanceSummary>,
+    /// From `SAMPLES` points drawn by area on `solid` of [`between`], the surface of the solid an
+    /// open mesh's winding number defines (the goal's densities polygonized at 1/2), to the
+    /// model's surface: where an open mesh's faces hang in space or its holes are capped, that
+    /// surface, not the faces, is what a model of the solid can hold.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub solid_to_model: Option<DistanceSummary>,
-    /// From the model's surface to `solid` of [`between`], the surface of the solid an open
-    /// mesh's winding number defines (the goal's densities polygonized at 1/2), the same points
-    /// as `model_to_mesh`: an open mesh has no surface where its solid is capped, a model of
-    /// the solid has.
+    /// From the model's surface to that solid's surface, the same points as `model_to_mesh`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_to_solid: Option<DistanceSummary>,
+}
+
+impl MeshDistances {
+    /// The side from the mesh to the model that a fit is judged by: the surface of the solid
+    /// an open mesh's winding number defines, else the faces that bound the solid where some
+    /// lie inside it, else the whole mesh.
+    pub fn to_model(&self) -> &DistanceSummary {
+        self.solid_to_model
+            .as_ref()
+            .or(self.bounding_to_model.as_ref())
+            .unwrap_or(&self.mesh_to_model)
+    }
+
+    /// The side from the model to the mesh that a fit is judged by: to the surface of the
+    /// solid an open mesh's winding number defines, else to the mesh.
+    pub fn from_model(&self) -> &DistanceSummary {
+        self.model_to_solid.as_ref().unwrap_or(&self.model_to_mesh)
+    }
 }
 
 /// How far `model` (a fitted model's polygonized surface) and the surface of `mesh_query` are
@@ -122,7 +143,7 @@ pub fn between(
     let to_model = model_query.distances(&on_mesh);
     let interior_points = inner.iter().filter(|&&i| i).count();
     let interior_share = interior_points as f64 / on_mesh.len() as f64;
-    let solid_to_model = (interior_share > INTERIOR_NOTABLE && interior_points < on_mesh.len())
+    let bounding_to_model = (interior_share > INTERIOR_NOTABLE && interior_points < on_mesh.len())
         .then(|| {
             let (distances, points): (Vec<f64>, Vec<DVec3>) = to_model
                 .iter()
@@ -135,10 +156,14 @@ pub fn between(
         });
     let model_to_mesh =
         DistanceSummary::of(&mesh_query.distances(&on_model), &on_model, voxel_size);
-    // The model's query is freed before the solid's is built: one at a time.
+    // The solid's points are measured to the model before the model's query is freed, and the
+    // solid's query built after: one query at a time.
+    let on_solid = solid.and_then(|solid| sample(solid, SAMPLES, seed.wrapping_add(2)));
+    let solid_to_model =
+        on_solid.as_ref().map(|on| DistanceSummary::of(&model_query.distances(on), on, voxel_size));
     drop(model_query);
     let model_to_solid = match solid {
-        Some(solid) if !solid.triangles.is_empty() => {
+        Some(solid) if on_solid.is_some() => {
             let distances = MeshQuery::new(solid)?.distances(&on_model);
             Some(DistanceSummary::of(&distances, &on_model, voxel_size))
         }
@@ -148,6 +173,7 @@ pub fn between(
         mesh_to_model: DistanceSummary::of(&to_model, &on_mesh, voxel_size),
         model_to_mesh,
         interior: interior_share,
+        bounding_to_model,
         solid_to_model,
         model_to_solid,
     }))
