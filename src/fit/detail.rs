@@ -176,7 +176,7 @@ pub fn checks_mesh(report: &FitReport, grid: &Grid, options: &FitOptions) -> boo
 /// the mesh ([`Goal::mesh_points`]), in voxels of `grid`, to first order: the value over the
 /// gradient's length at each point (the value alone, as the levels' residual, misses a
 /// rounded-off sharp corner, where the slope is steeper than one); `None` without such points.
-pub fn mesh_distance(goal: &Goal, field: &(impl Field + Sync), grid: &Grid) -> Option<f64> {
+pub fn mesh_distance(goal: &Goal, field: &impl Field, grid: &Grid) -> Option<f64> {
     let points = goal.mesh_points().filter(|p| !p.is_empty())?;
     let mut distances: Vec<f64> = points
         .par_iter()
