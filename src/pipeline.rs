@@ -69,6 +69,18 @@ pub enum Method {
     Naive,
 }
 
+impl Method {
+    /// The most constraints a fit by this method uses where `max_constraints` sets no limit:
+    /// 50,000 for the iterative fit, 2,000 for the naive one (1,000 mesh vertices, each with an
+    /// exterior constraint).
+    pub fn default_max_constraints(self) -> usize {
+        match self {
+            Method::Iterative => fit::MAX_CONSTRAINTS,
+            Method::Naive => fit::naive::DEFAULT_CONSTRAINTS,
+        }
+    }
+}
+
 impl std::str::FromStr for Method {
     type Err = Error;
 
@@ -1054,7 +1066,9 @@ impl<'a> Prepared<'a> {
         let mut options = self.options.fit.clone();
         let requested = match self.options.method {
             Method::Iterative => options.constraint_limit(),
-            Method::Naive => options.max_constraints.unwrap_or(fit::naive::DEFAULT_CONSTRAINTS),
+            Method::Naive => {
+                options.max_constraints.unwrap_or(Method::Naive.default_max_constraints())
+            }
         };
         let allowed = self.constraints_within_memory(requested);
         options.max_constraints = Some(allowed);
@@ -1091,8 +1105,21 @@ impl<'a> Prepared<'a> {
                     fitted.report.termination = Termination::LoopLimit { constraints: limit };
                 }
                 let stalled = fit::detail::stalled(&fitted.report, &self.grid, &options);
-                let checks_mesh = fit::detail::checks_mesh(&fitted.report, &self.grid, &options);
-                if stalled || checks_mesh {
+                // Where the loop met its target: points on the mesh where the goal agrees with
+                // it, and how far they lie from its model (voxels), if farther than the target
+                // allows.
+                let on_mesh = fit::detail::checks_mesh(&fitted.report, &self.grid, &options)
+                    .then(|| agreeing_points(&self.goal, self.mesh, &self.grid, &options));
+                let slack = options.levels.mesh_slack;
+                let far = on_mesh
+                    .as_ref()
+                    .and_then(|on| fit::detail::mesh_distance(on, &fitted.implicit, &self.grid))
+                    .filter(|&far| far > f64::from(options.target_error) + slack);
+                if stalled || far.is_some() {
+                    // Detail levels go on where the paper's loop stalled (the better of the two,
+                    // by E, or the one that meets the target) or left the mesh's points farther
+                    // than the target allows (the levels' fit, where it meets the target and
+                    // brings them nearer).
                     self.goal = with_mesh_points(
                         self.goal,
                         self.mesh,
@@ -1101,19 +1128,6 @@ impl<'a> Prepared<'a> {
                         &options,
                         &self.inside,
                     );
-                }
-                // Where the loop met its target, how far the mesh's points lie from its model
-                // (voxels), if farther than the target allows.
-                let slack = options.levels.mesh_slack;
-                let far = checks_mesh
-                    .then(|| fit::detail::mesh_distance(&self.goal, &fitted.implicit, &self.grid))
-                    .flatten()
-                    .filter(|&far| far > f64::from(options.target_error) + slack);
-                if stalled || far.is_some() {
-                    // Detail levels go on where the paper's loop stalled (the better of the two,
-                    // by E, or the one that meets the target) or left the mesh's points farther
-                    // than the target allows (the levels' fit, where it meets the target and
-                    // brings them nearer).
                     let levelled = fit::detail::after_stall(&options);
                     self.levels_estimate().check(self.limit, || None)?;
                     let mut again =
@@ -1132,7 +1146,11 @@ impl<'a> Prepared<'a> {
                     let better = match far {
                         Some(far) => {
                             met(&again.report)
-                                && fit::detail::mesh_distance(&self.goal, &again.shape, &self.grid)
+                                && on_mesh
+                                    .as_ref()
+                                    .and_then(|on| {
+                                        fit::detail::mesh_distance(on, &again.shape, &self.grid)
+                                    })
                                     .is_some_and(|levelled| levelled < far)
                         }
                         None => {
@@ -1215,6 +1233,16 @@ impl<'a> Prepared<'a> {
         })
         .unwrap_or(floor)
     }
+}
+
+/// Points drawn on `mesh` where `goal` agrees with it, as many as [`with_mesh_points`] draws,
+/// without the slits' walls: where a fit that met its target is checked against the mesh
+/// ([`fit::detail::mesh_distance`]).
+fn agreeing_points(goal: &Goal, mesh: &Mesh, grid: &Grid, fit: &FitOptions) -> Vec<DVec3> {
+    let scale = goal.grid().voxel_size / grid.voxel_size;
+    let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
+    let points = metrics::surface::sample(mesh, n, fit.seed).unwrap_or_default();
+    goal.agreeing(points, fit::MESH_AGREEMENT * scale as f32)
 }
 
 /// `goal` with points on `mesh` for its detail levels ([`Goal::with_mesh_samples`]): as many as

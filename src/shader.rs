@@ -29,7 +29,7 @@
 //! ## The texture layout (large models)
 //! A few thousand constants are fine for a compiler; beyond that, and in the viewer, the
 //! centres live in a texture ([`texture_source`]): an RGBA32F 2D texture of
-//! [`TEXTURE_WIDTH`] texels per row, read with `texelFetch` and no filtering; texel `i` is at
+//! 1,024 texels per row, read with `texelFetch` and no filtering; texel `i` is at
 //! column `i % TEXTURE_WIDTH`, row `i / TEXTURE_WIDTH`, and holds the normalized centre
 //! `(c - translate) / scale` in `rgb` and the weight in `a`. The functions of a composite take
 //! consecutive runs of texels, in the order of the model file's tree (depth first), each at the
@@ -39,7 +39,7 @@
 //! A model with detail levels ([`crate::rbf::MultiScale`]) is level 0's function plus one function per
 //! level, evaluated in level 0's normalized coordinates. A level is never read by looping over
 //! its centres: its [`DetailLevel::grid_index`] (a dense uniform grid over its supports, at most
-//! `CONSTANT_INDEX_CELLS` cells in the source, [`TEXTURE_INDEX_CELLS`] in the texture, each
+//! `CONSTANT_INDEX_CELLS` cells in the source, `TEXTURE_INDEX_CELLS` (64^3) in the texture, each
 //! cell listing the centres whose support meets it) gives the point's one cell, whose run of
 //! entries names the centres whose Wendland terms are summed. In the source the level's
 //! normalized centres and weights, cell starts and entries are constant arrays; in the texture
@@ -66,7 +66,7 @@ pub enum Language {
 }
 
 /// Texels per row of the centre texture (see the [module doc](self)).
-pub const TEXTURE_WIDTH: usize = 1024;
+pub(crate) const TEXTURE_WIDTH: usize = 1024;
 
 /// At most about this many cells in the grid index of a detail level whose numbers are
 /// constants in the source ([`source`]): 32^3.
@@ -74,13 +74,13 @@ pub(crate) const CONSTANT_INDEX_CELLS: usize = 1 << 15;
 
 /// At most about this many cells in the grid index of a detail level in the texture
 /// ([`texture_source`]): 64^3.
-pub const TEXTURE_INDEX_CELLS: usize = 1 << 18;
+pub(crate) const TEXTURE_INDEX_CELLS: usize = 1 << 18;
 
 /// The centres and weights of every function of a model, laid out as the [module
 /// doc](self) says: `width * height` RGBA texels, row after row, padded with zeros.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Texture {
-    /// Texels per row: [`TEXTURE_WIDTH`].
+    /// Texels per row (1,024).
     pub width: usize,
     /// Rows.
     pub height: usize,

@@ -6,7 +6,7 @@
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::rbf::{Constraint, Implicit, Kernel};
-use implicitize::shader::{Language, TEXTURE_WIDTH, source, texture_source};
+use implicitize::shader::{Language, source, texture_source};
 use implicitize::shape::Shape;
 use implicitize::{Aabb, DVec3};
 use implicitize_test_support::models::{ball, disc_2d, sphere_directions};
@@ -96,7 +96,7 @@ fn the_texture_holds_every_centre_of_a_composite_in_tree_order() {
     let (glsl, texture) = texture_source(&model, "csg.json").unwrap();
     assert!(glsl.contains("uniform highp sampler2D implicitize_centres;"));
     assert!(!glsl.contains("const vec4 IMPLICITIZE_RBF"));
-    assert_eq!(texture.width, TEXTURE_WIDTH);
+    assert_eq!(texture.width, 1024, "the module doc's texels per row");
     assert_eq!(texture.texels.len(), 4 * texture.width * texture.height);
     // Three balls: 80 + 1 + 20 centres, then 40 + 1 + 12 twice; the second starts at 101.
     assert!(glsl.contains("(j + 0)") && glsl.contains("(j + 101)") && glsl.contains("(j + 154)"));

@@ -8,8 +8,8 @@
 //! polygonizing, rendering) runs with the GIL released, so Python threads run it in parallel.
 
 use implicitize::Resolution;
-use implicitize::fit::{FitOptions, MAX_CONSTRAINTS, naive};
-use implicitize::pipeline::SampleOptions;
+use implicitize::fit::FitOptions;
+use implicitize::pipeline::{Method, SampleOptions};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -64,8 +64,8 @@ fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     defaults.set_item("levels", fit.levels.max_levels)?;
     defaults.set_item("levels_min_axis", fit.levels.min_axis)?;
     defaults.set_item("levels_max_goal_axis", fit.levels.max_goal_axis)?;
-    defaults.set_item("max_constraints", MAX_CONSTRAINTS)?;
-    defaults.set_item("naive_max_constraints", naive::DEFAULT_CONSTRAINTS)?;
+    defaults.set_item("max_constraints", Method::Iterative.default_max_constraints())?;
+    defaults.set_item("naive_max_constraints", Method::Naive.default_max_constraints())?;
     defaults.set_item("method", "iterative")?;
     let sample = SampleOptions::default();
     defaults.set_item("near_surface", sample.near_surface)?;

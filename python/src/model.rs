@@ -7,9 +7,7 @@ use std::path::{Path, PathBuf};
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::fit::IterationReport;
 use implicitize::pipeline::{self, FitObserver, FitOutputs, PolygonizeOptions};
-use implicitize::render::{
-    Camera, Coloring, DEFAULT_SIZE, DEFAULT_VIEW, March, march_bounds, render_field,
-};
+use implicitize::render::{Camera, Coloring, March, march_bounds, render_field};
 use implicitize::shape::Shape;
 use implicitize::{DVec3, Field, Implicit, Model};
 use numpy::ndarray::{Array1, Array2, Array3};
@@ -179,9 +177,9 @@ impl PyModel {
         color: &str,
     ) -> PyResult<Bound<'py, PyArray3<u8>>> {
         self.check_3d("render")?;
-        let [w, h] = DEFAULT_SIZE.map(|s| s as i64);
+        let [w, h] = Camera::DEFAULT_SIZE.map(|s| s as i64);
         let size = size.unwrap_or((w, h));
-        let view = view.unwrap_or(DEFAULT_VIEW.into());
+        let view = view.unwrap_or(Camera::DEFAULT_VIEW.into());
         let side = |s: i64| usize::try_from(s).ok().filter(|s| (1..=Camera::MAX_SIDE).contains(s));
         let (Some(width), Some(height)) = (side(size.0), side(size.1)) else {
             return Err(invalid(format!(

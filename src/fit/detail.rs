@@ -172,21 +172,35 @@ pub fn checks_mesh(report: &FitReport, grid: &Grid, options: &FitOptions) -> boo
     met && !applies(grid, options) && applies(grid, &after_stall(options))
 }
 
-/// The 99.9th percentile of how far the zero set of `field` lies from the goal's points on
-/// the mesh ([`Goal::mesh_points`]), in voxels of `grid`, to first order: the value over the
-/// gradient's length at each point (the value alone, as the levels' residual, misses a
-/// rounded-off sharp corner, where the slope is steeper than one); `None` without such points.
-pub fn mesh_distance(goal: &Goal, field: &impl Field, grid: &Grid) -> Option<f64> {
-    let points = goal.mesh_points().filter(|p| !p.is_empty())?;
-    let mut distances: Vec<f64> = points
-        .par_iter()
-        .map(|&p| {
-            let slope = field.gradient(p).length().max(f64::MIN_POSITIVE);
-            (field.value(p) / slope / grid.voxel_size).abs()
+/// The 99.9th percentile of how far the zero set of `field` lies from `points` (mesh units:
+/// points on the mesh where the goal agrees with it, [`Goal::agreeing`]), in voxels of `grid`,
+/// to first order: the value over the gradient's length (the value alone, as the levels'
+/// residual, misses a rounded-off sharp corner, where the slope is steeper than one). Points
+/// whose value is within [`NEAR`] voxels keep the value alone, their gradients unevaluated:
+/// they would need a slope below a fifth to lie beyond a target of 2 and half a voxel more.
+/// `None` without points.
+pub fn mesh_distance(points: &[DVec3], field: &impl Field, grid: &Grid) -> Option<f64> {
+    if points.is_empty() {
+        return None;
+    }
+    let voxel = grid.voxel_size;
+    let mut distances: Vec<f64> = field
+        .values(points)
+        .into_par_iter()
+        .zip(points)
+        .map(|(value, &p)| {
+            let near = (value / voxel).abs();
+            if near <= NEAR {
+                return near;
+            }
+            near / field.gradient(p).length().max(f64::MIN_POSITIVE)
         })
         .collect();
     Some(crate::metrics::percentile(&mut distances, 0.999))
 }
+
+/// The value, in voxels, within which [`mesh_distance`] takes the value for the distance.
+const NEAR: f64 = 0.5;
 
 /// The options of the fit with detail levels that follows a fit of the paper's loop that
 /// [`stalled`] on a grid below [`LevelOptions::min_axis`]: levels from any grid with a pyramid,

@@ -99,13 +99,19 @@ impl Goal {
     /// (bumps 3 voxels high) lay 3.06 voxels from the mesh at worst with one voxel of its goal,
     /// 1.70 with two.
     pub fn with_mesh_points(self, points: Vec<DVec3>, agreement: f32) -> Goal {
+        let kept = self.agreeing(points, agreement);
+        Goal { mesh_points: Some(kept), ..self }
+    }
+
+    /// Those of `points` (mesh units) near which the goal's surface lies within `agreement` of
+    /// its voxels, as [`Goal::with_mesh_points`] keeps them.
+    pub fn agreeing(&self, points: Vec<DVec3>, agreement: f32) -> Vec<DVec3> {
         let grid = *self.grid();
         let sub_voxel = self.sub_voxel();
-        let kept = points
+        points
             .into_par_iter()
             .filter(|&p| sub_voxel.signed_distance(grid.to_grid(p)).abs() <= agreement)
-            .collect();
-        Goal { mesh_points: Some(kept), ..self }
+            .collect()
     }
 
     /// This goal with the first `points` of `samples` (points on its mesh, mesh units, with

@@ -114,9 +114,8 @@ pub struct FitOptions {
     pub min_rms_improvement: f32,
     /// Stop after this many iterations.
     pub max_iterations: usize,
-    /// Never add constraints beyond this many in all; `None` is the method's own limit
-    /// ([`MAX_CONSTRAINTS`] for the iterative fit, [`naive::DEFAULT_CONSTRAINTS`] for the naive
-    /// one). A safety limit, far above what the paper's models need at E 2 (500 to 800), that
+    /// Never add constraints beyond this many in all; `None` is the method's own limit (its
+    /// `default_max_constraints`: 50,000 for the iterative fit, 2,000 for the naive one). A safety limit, far above what the paper's models need at E 2 (500 to 800), that
     /// a fit reaching it reports ([`Termination::ConstraintLimit`]): the solve scales
     /// (iteratively above `DIRECT_MAX` constraints), so the target E decides the count.
     pub max_constraints: Option<usize>,
@@ -184,10 +183,10 @@ impl Default for FitOptions {
 }
 
 /// The iterative fit's constraint limit where [`FitOptions::max_constraints`] sets none.
-pub const MAX_CONSTRAINTS: usize = 50_000;
+pub(crate) const MAX_CONSTRAINTS: usize = 50_000;
 
 impl FitOptions {
-    /// The constraint limit of the iterative fit: `max_constraints`, or [`MAX_CONSTRAINTS`].
+    /// The constraint limit of the iterative fit: `max_constraints`, or 50,000.
     pub fn constraint_limit(&self) -> usize {
         self.max_constraints.unwrap_or(MAX_CONSTRAINTS)
     }

@@ -30,6 +30,13 @@ impl Camera {
     /// The largest image side accepted (a picture of 8192 x 8192 takes 256 MB).
     pub const MAX_SIDE: usize = 8192;
 
+    /// The default view of every picture: azimuth and elevation in degrees, a three-quarter
+    /// view from the front right and a little above.
+    pub const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
+
+    /// The default picture size in pixels, width and height.
+    pub const DEFAULT_SIZE: [usize; 2] = [800, 600];
+
     /// The fraction of the frame the box may fill along its tighter axis.
     const FILL: f64 = 0.92;
 

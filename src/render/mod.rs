@@ -76,13 +76,6 @@ pub fn render_field<F: Field + ?Sized>(
 /// when the model has no fit grid, so that a surface bulging a little past them is not clipped.
 pub(crate) const MODEL_PAD: f64 = 0.05;
 
-/// The default view of every picture: azimuth and elevation in degrees, a three-quarter view
-/// from the front right and a little above.
-pub const DEFAULT_VIEW: [f64; 2] = [35.0, 20.0];
-
-/// The default picture size in pixels, width and height.
-pub const DEFAULT_SIZE: [usize; 2] = [800, 600];
-
 /// The box a model's function is marched through: the grid it was fitted on (its bounds and
 /// margins, where the fit measured the surface), or else its bounds grown on every side by
 /// `MODEL_PAD` of their longest extent.

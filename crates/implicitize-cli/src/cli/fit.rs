@@ -5,9 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::parser::ValueSource;
 use clap::{Args, ValueEnum};
-use implicitize::fit::{
-    ErrorMeasure, FitOptions, IterationReport, LevelOptions, MAX_CONSTRAINTS, naive,
-};
+use implicitize::fit::{ErrorMeasure, FitOptions, IterationReport, LevelOptions};
 use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
 use implicitize::settings::{FitSettings, fit_settings};
 use implicitize::{Implicit, ModelFormat, mesh, output};
@@ -45,9 +43,10 @@ impl From<ModelFileFormat> for ModelFormat {
 /// The `--max-constraints` help, with the library's limits.
 fn max_constraints_help() -> String {
     format!(
-        "Never use more constraints than this [default: {MAX_CONSTRAINTS}; {} with --method \
-         naive, which uses half of them as mesh vertices]",
-        naive::DEFAULT_CONSTRAINTS
+        "Never use more constraints than this [default: {}; {} with --method naive, which uses \
+         half of them as mesh vertices]",
+        pipeline::Method::Iterative.default_max_constraints(),
+        pipeline::Method::Naive.default_max_constraints()
     )
 }
 
@@ -335,7 +334,7 @@ pub fn demo(args: &DemoCommand, progress: Progress) -> anyhow::Result<()> {
     let bytes = Some(TRICERATOPS_OBJ.len() as u64);
     let from = MeshSource::Mesh { mesh: &mesh, name: &name, bytes };
     let fitted = fit_and_write(from, "triceratops", &args.fit, &outputs, None, progress)?;
-    let [width, height] = implicitize::render::DEFAULT_SIZE;
+    let [width, height] = implicitize::render::Camera::DEFAULT_SIZE;
     compare_picture(&mesh, &fitted.model, width, height)?.save_png(&compare)?;
     let written = [&outputs.model, &outputs.report, &outputs.surface]
         .map(|p| p.as_ref().map_or(String::new(), |p| p.display().to_string()));

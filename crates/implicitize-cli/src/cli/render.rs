@@ -17,8 +17,7 @@ use implicitize::metrics::RegularityOptions;
 use implicitize::model::Model;
 use implicitize::pipeline::{MeshFitOptions, Prepared};
 use implicitize::render::{
-    Camera, Coloring, DEFAULT_SIZE, DEFAULT_VIEW, Image, March, Shading, grid_box, march_bounds,
-    render_field, render_mesh,
+    Camera, Coloring, Image, March, Shading, grid_box, march_bounds, render_field, render_mesh,
 };
 use implicitize::{Aabb, Field, Grid, Mesh};
 
@@ -46,12 +45,12 @@ pub struct RenderCommand {
     #[arg(short, long)]
     pub output: PathBuf,
     /// The picture's width and height in pixels (each half's, with --compare).
-    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = DEFAULT_SIZE)]
+    #[arg(long, num_args = 2, value_names = ["W", "H"], default_values_t = Camera::DEFAULT_SIZE)]
     pub size: Vec<usize>,
     /// The view direction in degrees: azimuth about the vertical +y axis (0 looks from +z,
     /// 90 from +x) and elevation above the horizon.
     #[arg(long, num_args = 2, value_names = ["AZIMUTH", "ELEVATION"],
-          allow_negative_numbers = true, default_values_t = DEFAULT_VIEW)]
+          allow_negative_numbers = true, default_values_t = Camera::DEFAULT_VIEW)]
     pub view: Vec<f64>,
     /// How the surface is coloured.
     #[arg(long, value_enum, default_value_t = ColorArg::Plain)]
@@ -237,7 +236,7 @@ fn snapshot<F: Field + ?Sized>(
     march: &Aabb,
     (width, height): (usize, usize),
 ) -> implicitize::Result<Image> {
-    let [azimuth, elevation] = DEFAULT_VIEW;
+    let [azimuth, elevation] = Camera::DEFAULT_VIEW;
     let camera = Camera::framing(frame, azimuth, elevation, width, height)?;
     render_field(field, march, &camera, Coloring::Plain, March::default())
 }
@@ -251,7 +250,7 @@ pub fn compare_picture(
     height: usize,
 ) -> implicitize::Result<Image> {
     let bounds = mesh.bounds().map_or(model.bounds(), |b| union(&b, &model.bounds()));
-    let [azimuth, elevation] = DEFAULT_VIEW;
+    let [azimuth, elevation] = Camera::DEFAULT_VIEW;
     let camera = Camera::framing(&bounds, azimuth, elevation, width, height)?;
     let left = render_mesh(mesh, &camera, Coloring::Plain, Shading::Smooth);
     let right =

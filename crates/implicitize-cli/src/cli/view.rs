@@ -17,7 +17,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use implicitize::bound::block_uppers;
 use implicitize::model::Model;
-use implicitize::render::{DEFAULT_VIEW, LatticeGeometry, March, march_bounds};
+use implicitize::render::{Camera, LatticeGeometry, March, march_bounds};
 use implicitize::shape::Shape;
 use implicitize::{Aabb, Mesh, output, shader};
 use serde_json::{Value, json};
@@ -84,7 +84,7 @@ pub fn run(args: &ViewArgs, progress: Progress) -> anyhow::Result<()> {
     let model_bytes = std::fs::metadata(&args.model).map(|m| m.len()).unwrap_or(0);
     let data = json!({
         "name": name,
-        "view": DEFAULT_VIEW,
+        "view": Camera::DEFAULT_VIEW,
         "frame": box_json(&frame),
         "lattice": {
             "origin": lattice.origin.to_array(),
