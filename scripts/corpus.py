@@ -321,7 +321,7 @@ def fmt(value, digits=2, scale=1.0, unit=""):
 
 def table(rows, resolution) -> str:
     lines = [
-        "| mesh | kind | outcome | s | MB | E | mesh→model 99.9% | model→mesh (solid) 99.9% | interior | "
+        "| mesh | kind | outcome | s | MB | E | mesh (solid)→model 99.9% | model→mesh (solid) 99.9% | interior | "
         "winding ~1/2 | thin | why it stopped / refused |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -339,7 +339,7 @@ def table(rows, resolution) -> str:
         "",
         f"{len(rows)} meshes at {'the defaults' if resolution is None else f'--resolution {resolution}'}: "
         f"{count('fitted')} fitted (E within the target and 99.9% of each surface within 2.5 voxels "
-        f"of the other, the mesh's over the faces that bound its solid, the model's to the solid an open mesh's winding number defines), {count('short')} fitted "
+        f"of the other: an open mesh's, both ways, the surface of the solid its winding number defines; a mesh with faces inside its solid, the faces that bound it), {count('short')} fitted "
         f"short of that, {count('refused')} refused with a reason in under 2 s, "
         f"{count('failed late')} failed after 2 s or more; over 15 s: {', '.join(slow) or 'none'}.",
     ]

@@ -55,7 +55,7 @@ use super::report::{
 use super::{FitOptions, Goal, Log, coarse, compact};
 use crate::error::Result;
 use crate::field::Field;
-use crate::geometry::DVec3;
+use crate::geometry::{Cells, DVec3};
 use crate::grid::Grid;
 use crate::rbf::MultiScale;
 use crate::rbf::{self, DetailLevel, Implicit, Kernel};
@@ -740,39 +740,25 @@ fn spaced(points: &[DVec3], order: Vec<usize>, spacing: f64) -> Vec<usize> {
 /// Points in a hash grid of cells of side `reach`, asked whether any lies within `reach`.
 struct PointSet {
     reach: f64,
-    cells: std::collections::HashMap<[i64; 3], Vec<DVec3>>,
+    cells: Cells<DVec3>,
 }
 
 impl PointSet {
     fn new(reach: f64, points: &[DVec3]) -> PointSet {
-        let mut set = PointSet { reach, cells: Default::default() };
+        let mut set = PointSet { reach, cells: Cells::new(reach) };
         for &p in points {
             set.insert(p);
         }
         set
     }
 
-    fn cell(&self, p: DVec3) -> [i64; 3] {
-        (p / self.reach).floor().as_i64vec3().to_array()
-    }
-
     fn insert(&mut self, p: DVec3) {
-        let key = self.cell(p);
-        self.cells.entry(key).or_default().push(p);
+        self.cells.insert(p, p);
     }
 
     fn any_within(&self, p: DVec3) -> bool {
-        let [x, y, z] = self.cell(p);
         let reach2 = self.reach * self.reach;
-        (x - 1..=x + 1).any(|i| {
-            (y - 1..=y + 1).any(|j| {
-                (z - 1..=z + 1).any(|k| {
-                    self.cells
-                        .get(&[i, j, k])
-                        .is_some_and(|list| list.iter().any(|q| q.distance_squared(p) < reach2))
-                })
-            })
-        })
+        self.cells.near(p).any(|q| q.distance_squared(p) < reach2)
     }
 }
 

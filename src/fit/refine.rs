@@ -44,10 +44,8 @@
 //! grows. Early in a fit every candidate is above the target (its error is at least half of E),
 //! so the rule changes nothing there.
 
-use std::collections::HashMap;
-
 use super::{ErrorMeasure, FitConstraint, FitOptions, Goal};
-use crate::geometry::DVec3;
+use crate::geometry::{Cells, DVec3};
 use crate::metrics::BoundaryErrors;
 
 /// A candidate constraint with the errors that rank and prune it.
@@ -192,17 +190,22 @@ fn select(
     // An added constraint keeps candidates within `added_spacing_factor` times its error, and no
     // error exceeds the first (greatest) candidate's.
     let reach = (options.added_spacing_factor * f64::from(first.constraint.error)).max(1e-9);
+    // Positions with the error of their constraint: the distance rules cost in proportion to
+    // the candidates, not candidates times constraints.
     let mut added_cells = Cells::new(reach);
-    let existing_cells = Cells::of(spacing, existing.iter().map(|e| (e.position, e.error)));
+    let mut existing_cells = Cells::new(spacing);
+    for e in existing {
+        existing_cells.insert(e.position, e.position);
+    }
     let mut added: Vec<FitConstraint> = Vec::new();
     for candidate in candidates {
         let near_added = |c: &FitConstraint| {
-            added_cells.near(c.position).any(|(p, error)| {
+            added_cells.near(c.position).any(|&(p, error): &(DVec3, f32)| {
                 p.distance(c.position) < options.added_spacing_factor * f64::from(error)
             })
         };
         let near_existing = |c: &FitConstraint| {
-            existing_cells.near(c.position).any(|(p, _)| p.distance(c.position) < spacing)
+            existing_cells.near(c.position).any(|p| p.distance(c.position) < spacing)
         };
         let c = candidate.constraint;
         if near_added(&c) {
@@ -214,53 +217,11 @@ fn select(
             Some(c)
         };
         if let Some(c) = kept {
-            added_cells.insert(c.position, c.error);
+            added_cells.insert(c.position, (c.position, c.error));
             added.push(c);
         }
     }
     added
-}
-
-/// Positions (with the error of their constraint) hashed into cubic cells, so that those
-/// within one cell's side of a point are found among the 27 cells around it: the distance rules
-/// cost in proportion to the candidates, not candidates times constraints.
-struct Cells {
-    side: f64,
-    cells: HashMap<[i64; 3], Vec<(DVec3, f32)>>,
-}
-
-impl Cells {
-    fn new(side: f64) -> Cells {
-        Cells { side, cells: HashMap::new() }
-    }
-
-    fn of(side: f64, items: impl Iterator<Item = (DVec3, f32)>) -> Cells {
-        let mut cells = Cells::new(side);
-        for (p, error) in items {
-            cells.insert(p, error);
-        }
-        cells
-    }
-
-    fn key(&self, p: DVec3) -> [i64; 3] {
-        [p.x, p.y, p.z].map(|v| (v / self.side).floor() as i64)
-    }
-
-    fn insert(&mut self, p: DVec3, error: f32) {
-        self.cells.entry(self.key(p)).or_default().push((p, error));
-    }
-
-    /// Every item in the 27 cells around `p`: all those within `side` of it, and some more.
-    fn near(&self, p: DVec3) -> impl Iterator<Item = (DVec3, f32)> + '_ {
-        let [i, j, k] = self.key(p);
-        (-1..=1)
-            .flat_map(move |a| {
-                (-1..=1).flat_map(move |b| (-1..=1).map(move |c| [i + a, j + b, k + c]))
-            })
-            .filter_map(|key| self.cells.get(&key))
-            .flatten()
-            .copied()
-    }
 }
 
 #[cfg(test)]

@@ -16,15 +16,11 @@
 //!
 //! [`SubVoxel`]: crate::metrics::SubVoxel
 
-use std::collections::HashMap;
-use std::hash::BuildHasherDefault;
-
 use rayon::prelude::*;
 
 use crate::edt;
-use crate::geometry::DVec3;
+use crate::geometry::{AROUND, Cells, DVec3};
 use crate::grid::Volume;
-use crate::polygonize::IndexHasher;
 
 /// The side of the cells that index the points, in voxels: queries look at the 27 cells around
 /// theirs, so every point within this distance is seen.
@@ -39,12 +35,18 @@ pub(crate) const REACH: f32 = 2.5;
 
 /// The normals of the goal's surface points and the points' cells; the points themselves stay
 /// the goal's ([`super::Goal::surface`]).
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct SurfaceDisks {
     /// Unit normals pointing inside (up the densities), zero where the densities are flat.
     normals: Vec<DVec3>,
-    /// The points of each cell, by [`key`].
-    cells: HashMap<u64, Vec<u32>, BuildHasherDefault<IndexHasher>>,
+    /// The points' indices, in cells of side [`CELL`].
+    cells: Cells<u32>,
+}
+
+impl Default for SurfaceDisks {
+    fn default() -> SurfaceDisks {
+        SurfaceDisks { normals: Vec::new(), cells: Cells::new(CELL) }
+    }
 }
 
 impl SurfaceDisks {
@@ -54,9 +56,9 @@ impl SurfaceDisks {
             .par_iter()
             .map(|&p| edt::gradient(density, p).try_normalize().unwrap_or(DVec3::ZERO))
             .collect();
-        let mut cells: HashMap<u64, Vec<u32>, BuildHasherDefault<IndexHasher>> = HashMap::default();
+        let mut cells = Cells::new(CELL);
         for (i, &p) in points.iter().enumerate() {
-            cells.entry(key(cell_of(p))).or_default().push(i as u32);
+            cells.insert(p, i as u32);
         }
         SurfaceDisks { normals, cells }
     }
@@ -67,16 +69,15 @@ impl SurfaceDisks {
     /// and a cell whose box is further from `q` than the nearest disk so far (less the disks'
     /// radius) is skipped.
     pub(super) fn signed_distance(&self, points: &[DVec3], q: DVec3) -> Option<f32> {
-        let home = cell_of(q);
+        let home = self.cells.cell(q);
         let mut nearest: Option<(f64, f64)> = None;
         for offset in AROUND {
             let cell: [i64; 3] = std::array::from_fn(|a| home[a] + offset[a]);
             let reach = nearest.map_or(f64::INFINITY, |(best, _)| best + DISK_RADIUS);
-            if box_distance(q, cell) >= reach {
+            if self.cells.box_distance(q, cell) >= reach {
                 continue;
             }
-            let Some(indices) = self.cells.get(&key(cell)) else { continue };
-            for &i in indices {
+            for &i in self.cells.in_cell(cell) {
                 let i = i as usize;
                 let (d, side) = disk_distance(points[i], self.normals[i], q);
                 if nearest.is_none_or(|(best, _)| d < best) {
@@ -96,37 +97,4 @@ fn disk_distance(point: DVec3, normal: DVec3, q: DVec3) -> (f64, f64) {
     let along = (v.length_squared() - across * across).max(0.0).sqrt();
     let beyond = (along - DISK_RADIUS).max(0.0);
     ((across * across + beyond * beyond).sqrt(), across)
-}
-
-/// The 27 cells around a cell, its own first.
-const AROUND: [[i64; 3]; 27] = {
-    let mut around = [[0; 3]; 27];
-    let mut n = 1;
-    let mut i = 0;
-    while i < 27 {
-        let offset = [i as i64 / 9 - 1, i as i64 / 3 % 3 - 1, i as i64 % 3 - 1];
-        if i != 13 {
-            around[n] = offset;
-            n += 1;
-        }
-        i += 1;
-    }
-    around
-};
-
-fn cell_of(p: DVec3) -> [i64; 3] {
-    (p / CELL).floor().to_array().map(|c| c as i64)
-}
-
-/// A cell's key in the map: 21 bits an axis (the cells of any grid, and their wrapped
-/// neighbours below 0, stay apart).
-fn key(cell: [i64; 3]) -> u64 {
-    cell.iter().fold(0, |k, &c| (k << 21) | (c as u64 & 0x1f_ffff))
-}
-
-/// The distance from `q` to the box of `cell`.
-fn box_distance(q: DVec3, cell: [i64; 3]) -> f64 {
-    let lo = DVec3::from_array(cell.map(|c| c as f64)) * CELL;
-    let outside = (lo - q).max(q - (lo + CELL)).max(DVec3::ZERO);
-    outside.length()
 }

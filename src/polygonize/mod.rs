@@ -70,8 +70,6 @@ mod refine;
 mod tables;
 mod track;
 
-pub(crate) use track::IndexHasher;
-
 use rayon::prelude::*;
 
 use crate::field::Field;

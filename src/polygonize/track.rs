@@ -55,7 +55,7 @@ const KEY_RUN: usize = 1 << 12;
 /// A hasher for voxel and edge indices: the murmur3 finalizer, which spreads indices that
 /// differ only in their high bits (voxels of one column) over the whole table.
 #[derive(Default)]
-pub(crate) struct IndexHasher(u64);
+struct IndexHasher(u64);
 
 impl Hasher for IndexHasher {
     fn write(&mut self, bytes: &[u8]) {

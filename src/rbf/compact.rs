@@ -28,14 +28,11 @@
 //! * Positions and values are f64; centres are assumed distinct (the fit spaces them a fraction
 //!   of `rho` apart), which positive definiteness needs.
 
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
-
 use rayon::prelude::*;
 
 use super::lattice::Lattice;
 use crate::error::{Error, Result};
-use crate::geometry::{DVec3, MORTON_BITS, morton_key};
+use crate::geometry::{CellMap, DVec3, MORTON_BITS, cell_key, cell_of, morton_key};
 
 /// `psi_rho(r)` given `t = r / rho`: Wendland's C2 function, 1 at 0, 0 from 1 on.
 #[inline]
@@ -67,48 +64,6 @@ pub(crate) const CG_TOLERANCE: f64 = 1e-10;
 /// makes need tens to a few hundred).
 const CG_MAX_ITERATIONS: usize = 5000;
 
-/// A hasher for cell keys (one `u64` each): a multiply and a fold, enough for keys that pack
-/// small integer triples (std's default SipHash costs several times more per lookup).
-#[derive(Default)]
-struct CellHasher(u64);
-
-impl Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-
-    fn write_u64(&mut self, v: u64) {
-        let h = (self.0 ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        self.0 = h ^ (h >> 29);
-    }
-}
-
-type Cells<V> = HashMap<u64, V, BuildHasherDefault<CellHasher>>;
-
-/// Bits of each coordinate in a cell's key.
-const KEY_BITS: u32 = 21;
-
-/// The key of the cell of integer coordinates `c` in a sparse table: their low [`KEY_BITS`]
-/// bits packed. Cells `2^KEY_BITS` apart share a key (far beyond any model's supports); a
-/// point in such a cell reads centres that are too far to count, which every reader checks.
-#[inline]
-fn key_of(c: [i64; 3]) -> u64 {
-    let mask = (1u64 << KEY_BITS) - 1;
-    c.iter().fold(0, |key, &x| (key << KEY_BITS) | (x as u64 & mask))
-}
-
-/// The integer coordinates of the cell of side `side` holding `p`.
-#[inline]
-fn cell_coordinates(p: DVec3, side: f64) -> [i64; 3] {
-    (p / side).floor().as_i64vec3().to_array()
-}
-
 /// Cells of the support index per support radius: a cell of side `rho / 2` lists the centres
 /// within `rho` of any of its points, of which about 40% cover a given point of the cell (20%
 /// with cells of side `rho`), for about 84 entries per centre.
@@ -137,7 +92,7 @@ enum CellTable {
     /// whose box holds at most [`DENSE_CELLS_PER_ENTRY`] cells an entry: found without hashing.
     Dense { low: [i64; 3], dims: [i64; 3], starts: Vec<u32> },
     /// The cells that list a centre, by key, with their range of `entries`.
-    Sparse(Cells<(u32, u32)>),
+    Sparse(CellMap<(u32, u32)>),
 }
 
 /// The index, x-major, of cell `c` in the box of cells from `low` with `dims` cells along each
@@ -164,7 +119,7 @@ impl CellTable {
                 let i = box_index(*low, *dims, c)?;
                 Some((starts[i], starts[i + 1]))
             }
-            CellTable::Sparse(cells) => cells.get(&key_of(c)).copied(),
+            CellTable::Sparse(cells) => cells.get(&cell_key(c)).copied(),
         }
     }
 
@@ -186,8 +141,7 @@ impl SupportIndex {
     fn new(centres: &[DVec3], rho: f64) -> SupportIndex {
         let side = rho / CELLS_PER_RADIUS;
         let reach = DVec3::splat(rho);
-        let span =
-            |c: DVec3| (cell_coordinates(c - reach, side), cell_coordinates(c + reach, side));
+        let span = |c: DVec3| (cell_of(c - reach, side), cell_of(c + reach, side));
         // The cells whose box `c`'s support ball meets.
         let cells_of = |c: DVec3| {
             let (lo, hi) = span(c);
@@ -200,7 +154,7 @@ impl SupportIndex {
         if centres.is_empty() {
             return SupportIndex {
                 side,
-                cells: CellTable::Sparse(Cells::default()),
+                cells: CellTable::Sparse(CellMap::default()),
                 entries: vec![],
             };
         }
@@ -220,7 +174,7 @@ impl SupportIndex {
         // A centre's cells lie in the box of all of them, so a dense id always exists.
         let key = |c: [i64; 3]| match box_index(low, dims, c) {
             Some(i) if dense => i as u64,
-            _ => key_of(c),
+            _ => cell_key(c),
         };
         let mut cells_by_centre = vec![0u64; total as usize];
         {
@@ -285,7 +239,7 @@ impl SupportIndex {
             counts.iter().enumerate().flat_map(|(j, &k)| std::iter::repeat_n(j as u32, k as usize));
         let mut pairs: Vec<(u64, u32)> = cells.into_iter().zip(owners).collect();
         pairs.par_sort_unstable();
-        let mut table = Cells::default();
+        let mut table = CellMap::default();
         table.reserve(pairs.chunk_by(|a, b| a.0 == b.0).count());
         let mut start = 0;
         for run in pairs.chunk_by(|a, b| a.0 == b.0) {
@@ -298,7 +252,7 @@ impl SupportIndex {
     /// The centres whose support may cover `p`: every one that does, and a few more.
     #[inline]
     fn near(&self, p: DVec3) -> &[u32] {
-        self.list(cell_coordinates(p, self.side))
+        self.list(cell_of(p, self.side))
     }
 
     /// The centres cell `c` lists.
@@ -505,7 +459,7 @@ impl DetailLevel {
     /// once), read from the cells of the support index the box meets.
     pub fn centres_near(&self, min: DVec3, max: DVec3) -> Vec<u32> {
         let side = self.index.side;
-        let (lo, hi) = (cell_coordinates(min, side), cell_coordinates(max, side));
+        let (lo, hi) = (cell_of(min, side), cell_of(max, side));
         let mut near = Vec::new();
         for x in lo[0]..=hi[0] {
             for y in lo[1]..=hi[1] {
