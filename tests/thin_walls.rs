@@ -92,6 +92,30 @@ fn a_mesh_open_over_much_of_the_grid_is_refused_unless_asked_for() {
     assert!(Prepared::new(&hemisphere, "hemisphere.obj", &shell).is_ok());
 }
 
+/// A nearly flat open sheet (a terrain: 1 wide, a hundredth high) is open over all of its
+/// grid at any resolution: at 512 voxels its grid is a few voxels thick, thinner than the
+/// spacing of the lattice that samples the winding number, and it is still refused before the
+/// voxelization.
+#[test]
+fn a_thin_open_sheet_is_refused_on_a_fine_grid_too() {
+    let sheet = Mesh {
+        vertices: vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.01),
+            DVec3::new(0.0, 1.0, 0.0),
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    for resolution in [RESOLUTION, 512] {
+        let mut options = options();
+        options.resolution = Resolution::LongestAxis(resolution);
+        let error = Prepared::new(&sheet, "sheet.obj", &options).unwrap_err();
+        let message = error.worded(FrontEnd::Cli);
+        assert!(message.starts_with("sheet.obj: the mesh is open"), "{resolution}: {message}");
+    }
+}
+
 /// The resolution a refusal names, if any.
 fn named_resolution(message: &str) -> Option<usize> {
     let after = message.split("--resolution ").nth(1)?;

@@ -264,10 +264,13 @@ fn oriented_on(mesh: &Mesh, grid: &Grid) -> Result<(orient::Oriented, Vec<[DVec3
     Ok((oriented, triangles))
 }
 
-/// The winding number on a lattice of at most 16 voxels along each axis of `grid`.
+/// The winding number on a lattice of at most 16 voxels along each axis of `grid`, one
+/// spacing along all three (the longest axis's sixteenth): an axis no longer than half of it
+/// (a sheet's thin side on a fine grid) is sampled at its middle, so that no grid is left
+/// unsampled.
 fn ambiguity(winding: &Winding, grid: &Grid) -> Ambiguity {
     let stride = grid.dims.iter().max().map_or(1, |&n| n.div_ceil(16).max(1));
-    let axis = |n: usize| (stride / 2..n).step_by(stride);
+    let axis = |n: usize| (if stride / 2 < n { stride / 2 } else { n / 2 }..n).step_by(stride);
     let points: Vec<[usize; 3]> = axis(grid.dims[0])
         .flat_map(|i| {
             axis(grid.dims[1]).flat_map(move |j| axis(grid.dims[2]).map(move |k| [i, j, k]))
