@@ -176,7 +176,7 @@ pub fn checks_mesh(report: &FitReport, grid: &Grid, options: &FitOptions) -> boo
 /// points on the mesh where the goal agrees with it, [`Goal::agreeing`]), in voxels of `grid`,
 /// to first order: the value over the gradient's length (the value alone, as the levels'
 /// residual, misses a rounded-off sharp corner, where the slope is steeper than one). Points
-/// whose value is within [`NEAR`] voxels keep the value alone, their gradients unevaluated:
+/// whose value is within half a voxel keep the value alone, their gradients unevaluated:
 /// they would need a slope below a fifth to lie beyond a target of 2 and half a voxel more.
 /// `None` without points.
 pub fn mesh_distance(points: &[DVec3], field: &impl Field, grid: &Grid) -> Option<f64> {
