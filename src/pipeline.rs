@@ -1239,10 +1239,18 @@ impl<'a> Prepared<'a> {
 /// without the slits' walls: where a fit that met its target is checked against the mesh
 /// ([`fit::detail::mesh_distance`]).
 fn agreeing_points(goal: &Goal, mesh: &Mesh, grid: &Grid, fit: &FitOptions) -> Vec<DVec3> {
+    let (n, agreement) = mesh_points_of(goal, grid);
+    let points = metrics::surface::sample(mesh, n, fit.seed).unwrap_or_default();
+    goal.agreeing(points, agreement)
+}
+
+/// How many points the levels draw on the mesh for `goal` in a fit on `grid` (as many as
+/// `grid` has surface voxels), and how near the goal's surface they must lie to be kept
+/// ([`fit::MESH_AGREEMENT`] voxels of `grid`), in voxels of the goal.
+fn mesh_points_of(goal: &Goal, grid: &Grid) -> (usize, f32) {
     let scale = goal.grid().voxel_size / grid.voxel_size;
     let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
-    let points = metrics::surface::sample(mesh, n, fit.seed).unwrap_or_default();
-    goal.agreeing(points, fit::MESH_AGREEMENT * scale as f32)
+    (n, fit::MESH_AGREEMENT * scale as f32)
 }
 
 /// `goal` with points on `mesh` for its detail levels ([`Goal::with_mesh_samples`]): as many as
@@ -1258,9 +1266,7 @@ fn with_mesh_points(
     fit: &FitOptions,
     inside: &Inside,
 ) -> Goal {
-    let scale = goal.grid().voxel_size / grid.voxel_size;
-    let n = (goal.surface().len() as f64 * scale * scale).round() as usize;
-    let agreement = fit::MESH_AGREEMENT * scale as f32;
+    let (n, agreement) = mesh_points_of(&goal, grid);
     if inside.winding_near_half > 0.0 {
         return match metrics::surface::sample(mesh, n, fit.seed) {
             Some(points) => goal.with_mesh_points(points, agreement),
