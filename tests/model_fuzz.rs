@@ -14,7 +14,8 @@ use implicitize_test_support::shells::open_hemisphere;
 use proptest::prelude::*;
 
 /// Valid binary files: a thin-plate model on its lattice, a model with detail levels (a
-/// shell), and a CSG composite of the two.
+/// shell), a CSG composite of the two, and a version 1 file with detail levels (its occupancy
+/// stored as bytes, tests/data).
 static VALID: LazyLock<Vec<Vec<u8>>> = LazyLock::new(|| {
     let mut options = MeshFitOptions::default();
     options.resolution = Resolution::LongestAxis(40);
@@ -26,7 +27,10 @@ static VALID: LazyLock<Vec<Vec<u8>>> = LazyLock::new(|| {
     let csg =
         Model::from_composite(Composite::new("fuzz", Operation::Union, 0.1, children).unwrap())
             .unwrap();
-    [coarse, levels, csg].iter().map(Model::to_bytes).collect()
+    let mut files: Vec<Vec<u8>> = [coarse, levels, csg].iter().map(Model::to_bytes).collect();
+    let version_1 = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/triceratops-levels-v1.imp");
+    files.push(std::fs::read(version_1).unwrap());
+    files
 });
 
 /// The triceratops fitted by the paper's loop on a coarse grid, its function on its lattice.
@@ -111,7 +115,7 @@ proptest! {
 
     #[test]
     fn changed_file_bytes_never_panic(
-        file in 0..3usize,
+        file in 0..4usize,
         changes in proptest::collection::vec((0.0..1.0f64, any::<u8>()), 1..8),
     ) {
         let mut bytes = VALID[file].clone();
@@ -124,7 +128,7 @@ proptest! {
 
     #[test]
     fn changed_stream_bytes_never_panic(
-        which in 0..3usize,
+        which in 0..4usize,
         stream in 0..3usize,
         changes in proptest::collection::vec((0.0..1.0f64, any::<u8>()), 1..6),
         keep in 0.5..1.0f64,

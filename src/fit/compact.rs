@@ -9,8 +9,10 @@
 //!              level0_tolerance voxels of the unrounded one at its constraints
 //! detail level centres snapped to a lattice of rho / level_cells_per_radius before the level's
 //!              solve (so it interpolates at the points stored), weights rounded to
-//!              level_weight_step voxels after it; the next level fits what this one, rounded,
-//!              left (error feedback), and the report measures the rounded levels
+//!              level_weight_step voxels after it, and its centres whose weight is at most
+//!              level_prune_steps steps dropped (pruning); the next level fits what this one,
+//!              rounded and pruned, left (error feedback), and the report measures the levels
+//!              as stored
 //! ```
 //!
 //! Centres are listed along the Morton curve of their lattice points, the order in which the
@@ -37,6 +39,10 @@ pub struct Precision {
     pub level_cells_per_radius: u32,
     /// A detail level's weights are whole multiples of this many voxels of the fit's grid.
     pub level_weight_step: f64,
+    /// A detail level drops the centres whose rounded weight is at most this many steps, whose
+    /// part of the sum is at most that many steps anywhere; the next level fits what they
+    /// leave, as it fits what the rounding leaves.
+    pub level_prune_steps: u32,
 }
 
 impl Default for Precision {
@@ -46,6 +52,7 @@ impl Default for Precision {
             level0_tolerance: 0.02,
             level_cells_per_radius: 16,
             level_weight_step: 1.0 / 32.0,
+            level_prune_steps: 1,
         }
     }
 }
@@ -224,10 +231,22 @@ pub(crate) fn snap_centres(
     (centres, kept)
 }
 
-/// `level` with its weights rounded to its lattice's step, on that lattice.
-pub(crate) fn round_level(level: DetailLevel, lattice: Lattice) -> DetailLevel {
-    let weights = round_all(level.weights(), lattice.weight_step);
-    level.with_weights(weights).on_lattice(lattice)
+/// `level` with its weights rounded to its lattice's step, on that lattice, without the centres
+/// whose rounded weight is at most `prune_steps` steps.
+pub(crate) fn round_level(
+    level: DetailLevel,
+    lattice: Lattice,
+    prune_steps: u32,
+) -> Result<DetailLevel> {
+    let least = f64::from(prune_steps) * lattice.weight_step;
+    let (centres, weights): (Vec<DVec3>, Vec<f64>) = level
+        .centres()
+        .iter()
+        .zip(round_all(level.weights(), lattice.weight_step))
+        .filter(|(_, w)| w.abs() > least)
+        .map(|(&c, w)| (c, w))
+        .unzip();
+    Ok(DetailLevel::new("a detail level", level.radius(), centres, weights)?.on_lattice(lattice))
 }
 
 #[cfg(test)]
@@ -282,5 +301,35 @@ mod tests {
             assert!((a - b).abs() <= tolerance, "{a} {b}");
         }
         assert!(lattice.weight_step > 0.0);
+    }
+
+    /// Rounding a level drops the centres whose rounded weight is at most the pruning's steps
+    /// and keeps the others' rounded weights; without pruning only the zero weights go, which
+    /// changes no value.
+    #[test]
+    fn a_rounded_level_drops_its_smallest_weights() {
+        let grid = Grid { dims: [20, 20, 20], origin: [0.0; 3], voxel_size: 0.1 };
+        let lattice = level_lattice(0.4, &grid, &Precision::default()).expect("on");
+        let step = lattice.weight_step;
+        let centres: Vec<DVec3> =
+            (0..6).map(|i| DVec3::new(0.5 + 0.1 * i as f64, 1.0, 1.0)).collect();
+        let weights = vec![0.2 * step, 0.9 * step, -1.4 * step, 2.2 * step, -7.0 * step, 0.0];
+        let level = DetailLevel::new("a level", 0.4, centres, weights).unwrap();
+        let kept = |prune| {
+            let rounded = round_level(level.clone(), lattice, prune).unwrap();
+            let mut weights: Vec<i64> =
+                rounded.weights().iter().map(|&w| Lattice::multiple(w, step).unwrap()).collect();
+            weights.sort_unstable();
+            (rounded, weights)
+        };
+        assert_eq!(kept(0).1, [-7, -1, 1, 2]);
+        assert_eq!(kept(1).1, [-7, 2]);
+        assert_eq!(kept(2).1, [-7]);
+        let rounded = round_all(level.weights(), step);
+        let unpruned = DetailLevel::new("a level", 0.4, level.centres().to_vec(), rounded).unwrap();
+        for x in [0.3, 0.55, 0.8, 1.0, 1.2] {
+            let p = DVec3::new(x, 1.02, 0.97);
+            assert_eq!(kept(0).0.value(p), unpruned.value(p));
+        }
     }
 }

@@ -453,7 +453,9 @@ fn add_levels(
         let values: Vec<f64> = chosen.iter().map(|&i| errors[i] * voxel).collect();
         let (level, solve) = DetailLevel::interpolate(radius, centres, &values)?;
         let level = match lattice {
-            Some(lattice) => compact::round_level(level, lattice),
+            Some(lattice) => {
+                compact::round_level(level, lattice, options.precision.level_prune_steps)?
+            }
             None => level,
         };
         residual.par_iter_mut().zip(&points).for_each(|(r, &p)| *r -= level.value(p) / voxel);
@@ -461,7 +463,7 @@ fn add_levels(
         let (max_error_voxels, p999_error_voxels) = error_figures(&residual);
         reports.push(LevelReport {
             radius_voxels: radius / voxel,
-            centres: chosen.len(),
+            centres: level.centres().len(),
             bytes: 0,
             matrix_entries: solve.entries,
             solve_iterations: solve.iterations,

@@ -2,7 +2,7 @@
 //! integers and entropy-coded, everything else as little-endian f64.
 //!
 //! ```text
-//! file    = "IMPZ" version:u8 stream stream stream      (version 1)
+//! file    = "IMPZ" version:u8 stream stream stream      (version 2)
 //! stream  = length:varint zstd-frame (stating its size)   meta, points, integers
 //! meta    = bounds:6 f64, grid?, shape
 //! grid?   = 0 | 1 dims:3 varint origin:3 f64 voxel_size:f64
@@ -19,8 +19,10 @@
 //! int     = zigzag varint, in the integers stream
 //! ```
 //!
-//! The three streams are compressed apart (zstd at its strongest level) so that each holds
-//! numbers of one kind. A function whose numbers lie on its lattice is written as integers
+//! The points stream holds the occupancy of every octree in the file, in order, arithmetic-coded
+//! (occupancy.rs); version 1 held the occupancy bytes as they are, and is still read. The three
+//! streams are compressed apart (zstd at its strongest level) so that each holds numbers of one
+//! kind. A function whose numbers lie on its lattice is written as integers
 //! (checked number by number: one off the lattice writes the raw form), so reading it gives
 //! the same f64s and it evaluates bit for bit as the model written. The fit report is not
 //! stored: the file holds what evaluation needs.
@@ -35,13 +37,13 @@ use crate::rbf::{self, Constraint, DetailLevel, Implicit, Kernel, Lattice, Norma
 use crate::shape::Shape;
 use crate::shape::csg::{Child, Composite, Operation};
 
-use super::octree;
+use super::{occupancy, octree};
 
 /// The first bytes of every binary model file.
 pub const MAGIC: &[u8; 4] = b"IMPZ";
 
-/// The version of the binary format this build writes and reads.
-pub const VERSION: u8 = 1;
+/// The version of the binary format this build writes; it reads this one and every one before.
+pub const VERSION: u8 = 2;
 
 /// zstd's strongest level short of its "ultra" ones, whose windows the files never need.
 const LEVEL: i32 = 19;
@@ -70,7 +72,8 @@ pub(crate) fn encode(shape: &Shape, bounds: &Aabb, grid: Option<&Grid>) -> Vec<u
     w.shape(shape);
     let mut file = MAGIC.to_vec();
     file.push(VERSION);
-    for stream in [&w.meta, &w.points, &w.integers] {
+    let points = w.occupancy.finish();
+    for stream in [&w.meta, &points, &w.integers] {
         let packed = zstd::bulk::compress(stream, LEVEL).expect("compressing to memory");
         push_varint(&mut file, packed.len() as u64);
         file.extend_from_slice(&packed);
@@ -83,10 +86,10 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<(Shape, Aabb, Option<G
     let bad = |message: String| Error::parse(path, None, message);
     let body = bytes.strip_prefix(MAGIC).ok_or_else(|| bad("not a binary model".into()))?;
     let (&version, mut rest) = body.split_first().ok_or_else(|| bad("no version".into()))?;
-    if version != VERSION {
+    if !(1..=VERSION).contains(&version) {
         return Err(bad(format!(
-            "binary model format version {version} is not supported; this build reads version \
-             {VERSION}"
+            "binary model format version {version} is not supported; this build reads versions \
+             1 to {VERSION}"
         )));
     }
     let limit = bytes.len().saturating_mul(MAX_RATIO).saturating_add(SLACK);
@@ -114,8 +117,11 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<(Shape, Aabb, Option<G
         return Err(bad(format!("{} bytes after the last stream", rest.len())));
     }
     let context = path.display().to_string();
-    let mut r =
-        Reader { meta: &streams[0], points: &streams[1], integers: &streams[2], context: &context };
+    let occupancy = match version {
+        1 => Occupancy::Bytes(&streams[1]),
+        _ => Occupancy::Coded(occupancy::Decoder::new(&streams[1]).map_err(bad)?),
+    };
+    let mut r = Reader { meta: &streams[0], occupancy, integers: &streams[2], context: &context };
     let bounds = r.bounds()?;
     let grid = match r.u8()? {
         0 => None,
@@ -123,7 +129,7 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<(Shape, Aabb, Option<G
         flag => return Err(r.error(format!("grid flag {flag}"))),
     };
     let shape = r.shape(&context, 0)?;
-    if !(r.meta.is_empty() && r.points.is_empty() && r.integers.is_empty()) {
+    if !(r.meta.is_empty() && r.occupancy.is_done() && r.integers.is_empty()) {
         return Err(r.error("bytes left over after the shape".into()));
     }
     Ok((shape, bounds, grid))
@@ -162,7 +168,7 @@ fn unzigzag(v: u64) -> i64 {
 #[derive(Default)]
 struct Writer {
     meta: Vec<u8>,
-    points: Vec<u8>,
+    occupancy: occupancy::Encoder,
     integers: Vec<u8>,
 }
 
@@ -296,7 +302,7 @@ impl Writer {
         self.u8(depth as u8);
         let offsets: Vec<[u64; 3]> =
             keys.iter().map(|k| [0, 1, 2].map(|a| (k[a] - lo[a]) as u64)).collect();
-        self.points.extend(octree::encode(&offsets, depth));
+        self.occupancy.octree(&octree::encode(&offsets, depth));
     }
 }
 
@@ -335,9 +341,44 @@ fn operation_code(op: Operation) -> u8 {
 /// The three streams being read, and the file's name for errors.
 struct Reader<'a> {
     meta: &'a [u8],
-    points: &'a [u8],
+    occupancy: Occupancy<'a>,
     integers: &'a [u8],
     context: &'a str,
+}
+
+/// The points stream as read: the occupancy bytes as they are (version 1), or coded.
+enum Occupancy<'a> {
+    Bytes(&'a [u8]),
+    Coded(occupancy::Decoder),
+}
+
+impl Occupancy<'_> {
+    /// The points of the next octree, as [`octree::decode`].
+    fn octree(&mut self, depth: u32, count: usize) -> std::result::Result<Vec<[u64; 3]>, String> {
+        match self {
+            Occupancy::Bytes(bytes) => octree::decode(|_| octree::next_byte(bytes), depth, count),
+            Occupancy::Coded(decoder) => {
+                decoder.start_octree();
+                octree::decode(|d| decoder.mask(d), depth, count)
+            }
+        }
+    }
+
+    /// The most points the rest of the stream can hold, for bounds on counts: 8 a byte as
+    /// they are; coded, a point may take less than a bit, and others bound the count.
+    fn most_points(&self) -> usize {
+        match self {
+            Occupancy::Bytes(bytes) => bytes.len() * 8,
+            Occupancy::Coded(_) => 0,
+        }
+    }
+
+    fn is_done(&self) -> bool {
+        match self {
+            Occupancy::Bytes(bytes) => bytes.is_empty(),
+            Occupancy::Coded(decoder) => decoder.is_done(),
+        }
+    }
 }
 
 impl Reader<'_> {
@@ -457,7 +498,7 @@ impl Reader<'_> {
         if !(2..=4).contains(&dim) {
             return Err(self.error(format!("dimension {dim} is not 2, 3 or 4")));
         }
-        let left = self.meta.len() + self.points.len() * 8 + self.integers.len();
+        let left = self.meta.len() + self.occupancy.most_points() + self.integers.len();
         let n = self.count(1, left)?;
         let translate = self.f64s(dim)?;
         let scale = self.f64()?;
@@ -507,7 +548,7 @@ impl Reader<'_> {
 
     fn level(&mut self, context: &str) -> Result<DetailLevel> {
         let radius = self.f64()?;
-        let left = self.meta.len() + self.points.len() * 8 + self.integers.len();
+        let left = self.meta.len() + self.occupancy.most_points() + self.integers.len();
         let n = self.count(1, left)?;
         let level = match self.u8()? {
             0 => {
@@ -542,7 +583,7 @@ impl Reader<'_> {
         if depth > MORTON_BITS || lo.iter().any(|v| v.unsigned_abs() > 1 << 40) {
             return Err(self.error("a point set out of range".into()));
         }
-        let offsets = octree::decode(&mut self.points, depth, n).map_err(|e| self.error(e))?;
+        let offsets = self.occupancy.octree(depth, n).map_err(|e| self.error(e))?;
         Ok(offsets.into_iter().map(|o| [0, 1, 2].map(|a| lo[a] + o[a] as i64)).collect())
     }
 

@@ -80,6 +80,7 @@
 //! reproduces every weight bit for bit.
 
 mod binary;
+mod occupancy;
 mod octree;
 
 use std::path::Path;

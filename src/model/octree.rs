@@ -1,6 +1,6 @@
 //! A set of distinct lattice points as an octree's occupancy: one byte per occupied node, a
 //! bit per occupied child, breadth first (the coding of point-set geometry in Draco and MPEG
-//! G-PCC, here without their context models; the model file's compressor codes the bytes).
+//! G-PCC; [`super::occupancy`] codes the bytes with their context models).
 //!
 //! Points on a surface cost a few bits each: near the root most children are occupied, near the
 //! leaves one child of eight, three bits. The points come back in the octree's order, the
@@ -30,23 +30,40 @@ pub(crate) fn encode(points: &[[u64; 3]], depth: u32) -> Vec<u8> {
     masks
 }
 
-/// The points of an octree of `depth` levels read from `masks` (which it consumes), in Morton
-/// order; `count` is the number of points, none read beyond it.
+/// The occupancy bytes `masks` of one octree, each with its depth (0 at the root): the first
+/// byte is the root's, and each level holds as many bytes as the one above has occupied
+/// children.
+pub(crate) fn depths(masks: &[u8]) -> impl Iterator<Item = (u32, u8)> + '_ {
+    let (mut depth, mut left, mut next) = (0, 1usize, 0usize);
+    masks.iter().map(move |&mask| {
+        if left == 0 {
+            (depth, left, next) = (depth + 1, next, 0);
+        }
+        left -= 1;
+        next += mask.count_ones() as usize;
+        (depth, mask)
+    })
+}
+
+/// The points of an octree of `depth` levels whose occupancy bytes `mask(d)` gives, node by
+/// node breadth first (`d` the node's depth), in Morton order; `count` is the number of points,
+/// no byte asked for beyond them.
 ///
 /// # Errors
-/// A message when the bytes run out, a node has no child, or a level holds more nodes than
-/// `count`.
-pub(crate) fn decode(masks: &mut &[u8], depth: u32, count: usize) -> Result<Vec<[u64; 3]>, String> {
+/// A message when `mask` fails, a node has no child, or a level holds more nodes than `count`.
+pub(crate) fn decode(
+    mut mask: impl FnMut(u32) -> Result<u8, String>,
+    depth: u32,
+    count: usize,
+) -> Result<Vec<[u64; 3]>, String> {
     if depth > MORTON_BITS {
         return Err(format!("an octree of depth {depth} (at most {MORTON_BITS})"));
     }
     let mut nodes: Vec<u64> = if count == 0 { Vec::new() } else { vec![0] };
-    for _ in 0..depth {
-        let (level, rest) =
-            masks.split_at_checked(nodes.len()).ok_or("the octree's occupancy ends early")?;
-        *masks = rest;
+    for d in 0..depth {
         let mut next = Vec::with_capacity(nodes.len() * 2);
-        for (&node, &mask) in nodes.iter().zip(level) {
+        for &node in &nodes {
+            let mask = mask(d)?;
             if mask == 0 {
                 return Err("an octree node without children".into());
             }
@@ -61,6 +78,16 @@ pub(crate) fn decode(masks: &mut &[u8], depth: u32, count: usize) -> Result<Vec<
         return Err(format!("the octree holds {} points, not {count}", nodes.len()));
     }
     Ok(nodes.into_iter().map(coordinates).collect())
+}
+
+/// The next occupancy byte of `masks` (which it consumes), for [`decode`] of bytes as they are.
+///
+/// # Errors
+/// A message when the bytes run out.
+pub(crate) fn next_byte(masks: &mut &[u8]) -> Result<u8, String> {
+    let (&mask, rest) = masks.split_first().ok_or("the octree's occupancy ends early")?;
+    *masks = rest;
+    Ok(mask)
 }
 
 /// The coordinates of a Morton key (the inverse of [`morton_key`]).
@@ -97,17 +124,26 @@ mod tests {
         points.sort_by_key(|&p| morton_key(p));
         points.dedup();
         let masks = encode(&points, 8);
-        let mut read = &masks[..];
-        assert_eq!(decode(&mut read, 8, points.len()).unwrap(), points);
-        assert!(read.is_empty());
-        let mut short = &masks[..masks.len() - 1];
-        assert!(decode(&mut short, 8, points.len()).is_err());
-        let mut fewer = &masks[..];
-        assert!(decode(&mut fewer, 8, points.len() - 1).is_err());
+        let bytes = |masks: &[u8], count| {
+            let mut read = masks;
+            decode(|_| next_byte(&mut read), 8, count).map(|p| (p, read.is_empty()))
+        };
+        assert_eq!(bytes(&masks, points.len()).unwrap(), (points.clone(), true));
+        assert!(bytes(&masks[..masks.len() - 1], points.len()).is_err());
+        assert!(bytes(&masks, points.len() - 1).is_err());
         let mut zeroed = masks.clone();
         zeroed[3] = 0;
-        assert!(decode(&mut &zeroed[..], 8, points.len()).is_err());
-        assert_eq!(decode(&mut &[][..], 0, 0).unwrap(), Vec::<[u64; 3]>::new());
-        assert_eq!(decode(&mut &[][..], 0, 1).unwrap(), vec![[0, 0, 0]]);
+        assert!(bytes(&zeroed, points.len()).is_err());
+        let none = |_| Err("no byte".to_string());
+        assert_eq!(decode(none, 0, 0).unwrap(), Vec::<[u64; 3]>::new());
+        assert_eq!(decode(none, 0, 1).unwrap(), vec![[0, 0, 0]]);
+        // Each byte's depth: one root, then as many bytes as the level above has children.
+        let levels: Vec<u32> = depths(&masks).map(|(d, _)| d).collect();
+        assert_eq!(levels.len(), masks.len());
+        assert!(levels.windows(2).all(|w| w[1] == w[0] || w[1] == w[0] + 1));
+        assert_eq!((levels[0], levels[1], levels[masks.len() - 1]), (0, 1, 7));
+        let leaves: u32 =
+            depths(&masks).filter(|&(d, _)| d == 7).map(|(_, m)| m.count_ones()).sum();
+        assert_eq!(leaves as usize, points.len());
     }
 }

@@ -400,13 +400,6 @@ impl DetailLevel {
         self
     }
 
-    /// The same level with `weights` in place of its own (in its order).
-    pub(crate) fn with_weights(mut self, weights: Vec<f64>) -> DetailLevel {
-        debug_assert_eq!(weights.len(), self.weights.len());
-        self.weights = weights;
-        self
-    }
-
     /// The support radius, mesh units.
     pub fn radius(&self) -> f64 {
         self.radius
