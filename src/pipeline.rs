@@ -1322,7 +1322,7 @@ pub fn above_target(report: &FitReport) -> Option<String> {
             "the largest error at the goal's surface points",
             format!("its detail levels stopped: {}", levels.stopped),
         ),
-        None => ("E", format!("it stopped: {}", report.termination)),
+        None => ("E", loop_stop(report)),
     };
     let farthest = report.mesh_distance.map(|d| {
         let [x, y, z] = d.mesh_to_model.farthest;
@@ -1349,6 +1349,24 @@ pub fn above_target(report: &FitReport) -> Option<String> {
         farthest.unwrap_or_default(),
         finer.unwrap_or_default()
     ))
+}
+
+/// Why the paper's loop of `report` stopped, for [`above_target`]: a loop that reached its
+/// target ended above it only by the rounding of its numbers to the model file's lattice,
+/// which says so with the E before it.
+fn loop_stop(report: &FitReport) -> String {
+    let best = report.best_iteration.checked_sub(1).and_then(|i| report.per_iteration.get(i));
+    match (report.termination, best) {
+        (Termination::TargetError { measure, .. }, Some(best)) => format!(
+            "it reached {:.2} voxels, and rounding the model's numbers to the lattice of its \
+             file moved its surface (the nearest of the precisions tried is kept)",
+            match measure {
+                ErrorMeasure::Voxel => best.max_error_voxels,
+                ErrorMeasure::SubVoxel => best.max_error_subvoxel_voxels,
+            }
+        ),
+        _ => format!("it stopped: {}", report.termination),
+    }
 }
 
 /// A warning (one line, no file name) when more than

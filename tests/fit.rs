@@ -135,6 +135,18 @@ fn a_fit_that_ends_above_its_target_says_where() {
     let met = fit_mesh(&ball, 32, &FitOptions::default());
     assert!(met.report.target.is_some_and(|t| t.met), "{:?}", met.report.target);
     assert!(met.warnings().iter().all(|w| !w.contains("above its target")));
+
+    // A loop that reached its target and was stored above it (the rounding of its numbers to
+    // the file's lattice tipped a voxel) says so, with the E it reached, not that it stopped
+    // at its target.
+    let mut rounded = met.report.clone();
+    let reached = rounded.per_iteration[rounded.best_iteration - 1].max_error_voxels;
+    let target = rounded.target.as_mut().expect("a target");
+    (target.met, target.reached_voxels) = (false, target.target_voxels + 0.33);
+    let warning = pipeline::above_target(&rounded).expect("a warning");
+    assert!(warning.contains(&format!("it reached {reached:.2} voxels")), "{warning}");
+    assert!(warning.contains("rounding the model's numbers"), "{warning}");
+    assert!(!warning.contains("reached the target"), "{warning}");
 }
 
 /// Two unit spheres whose centres are one apart, overlapping: the cap of each inside the other
