@@ -238,13 +238,15 @@ pub(crate) fn round_level(
     lattice: Lattice,
     prune_steps: u32,
 ) -> Result<DetailLevel> {
-    let least = f64::from(prune_steps) * lattice.weight_step;
+    let step = lattice.weight_step;
     let (centres, weights): (Vec<DVec3>, Vec<f64>) = level
         .centres()
         .iter()
-        .zip(round_all(level.weights(), lattice.weight_step))
-        .filter(|(_, w)| w.abs() > least)
-        .map(|(&c, w)| (c, w))
+        .zip(level.weights())
+        .filter_map(|(&c, &w)| {
+            let steps = Lattice::nearest_multiple(w, step).unwrap_or(0);
+            (steps.unsigned_abs() > u64::from(prune_steps)).then_some((c, steps as f64 * step))
+        })
         .unzip();
     Ok(DetailLevel::new("a detail level", level.radius(), centres, weights)?.on_lattice(lattice))
 }

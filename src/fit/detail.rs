@@ -458,6 +458,10 @@ fn add_levels(
             }
             None => level,
         };
+        if level.centres().is_empty() {
+            // Every weight pruned: this radius adds nothing, the next (half) may.
+            continue;
+        }
         residual.par_iter_mut().zip(&points).for_each(|(r, &p)| *r -= level.value(p) / voxel);
         off.add(&level);
         let (max_error_voxels, p999_error_voxels) = error_figures(&residual);

@@ -558,7 +558,8 @@ impl FitReport {
 pub struct LevelReport {
     /// The support radius, in voxels of the full grid.
     pub radius_voxels: f64,
-    /// Its centres.
+    /// Its centres, those its pruning kept (`matrix_entries` and the solve's figures are those
+    /// of every centre chosen, before the pruning).
     pub centres: usize,
     /// What it adds to the binary model file, in bytes (0 until the model is finished: see
     /// [`crate::pipeline::Fitted::finish`]).

@@ -71,7 +71,8 @@ pub(crate) fn encode(shape: &Shape, bounds: &Aabb, grid: Option<&Grid>) -> Vec<u
     }
     w.shape(shape);
     let mut file = MAGIC.to_vec();
-    file.push(VERSION);
+    // A file without octrees is the same in both versions: the older one, which more builds read.
+    file.push(if w.occupancy.is_empty() { 1 } else { VERSION });
     let points = w.occupancy.finish();
     for stream in [&w.meta, &points, &w.integers] {
         let packed = zstd::bulk::compress(stream, LEVEL).expect("compressing to memory");
@@ -364,15 +365,6 @@ impl Occupancy<'_> {
         }
     }
 
-    /// The most points the rest of the stream can hold, for bounds on counts: 8 a byte as
-    /// they are; coded, a point may take less than a bit, and others bound the count.
-    fn most_points(&self) -> usize {
-        match self {
-            Occupancy::Bytes(bytes) => bytes.len() * 8,
-            Occupancy::Coded(_) => 0,
-        }
-    }
-
     fn is_done(&self) -> bool {
         match self {
             Occupancy::Bytes(bytes) => bytes.is_empty(),
@@ -420,6 +412,18 @@ impl Reader<'_> {
             Ok(n) if n.saturating_mul(bytes) <= stream_left => Ok(n),
             _ => Err(self.error(format!("a count of {n} items that the file cannot hold"))),
         }
+    }
+
+    /// Refuses a point set whose `count` integers (at least a byte each) the integers stream
+    /// cannot hold, before its octree is read: coded, a point's place may take less than a bit,
+    /// so the integers that follow the points bound their number.
+    fn integers_for(&self, count: usize) -> Result<()> {
+        if count > self.integers.len() {
+            return Err(
+                self.error(format!("{count} integers for a point set, more than the file holds"))
+            );
+        }
+        Ok(())
     }
 
     fn int(&mut self) -> Result<i64> {
@@ -498,8 +502,7 @@ impl Reader<'_> {
         if !(2..=4).contains(&dim) {
             return Err(self.error(format!("dimension {dim} is not 2, 3 or 4")));
         }
-        let left = self.meta.len() + self.occupancy.most_points() + self.integers.len();
-        let n = self.count(1, left)?;
+        let n = self.count(1, self.meta.len() + self.integers.len())?;
         let translate = self.f64s(dim)?;
         let scale = self.f64()?;
         let polynomial = self.f64s(dim + 1)?;
@@ -517,6 +520,7 @@ impl Reader<'_> {
             }
             1 if dim == 3 => {
                 let lattice = self.lattice()?;
+                self.integers_for(2 * n)?;
                 let keys = self.point_set(n)?;
                 let values = self.multiples(n, lattice.value_step)?;
                 let weights = self.multiples(n, lattice.weight_step)?;
@@ -548,8 +552,7 @@ impl Reader<'_> {
 
     fn level(&mut self, context: &str) -> Result<DetailLevel> {
         let radius = self.f64()?;
-        let left = self.meta.len() + self.occupancy.most_points() + self.integers.len();
-        let n = self.count(1, left)?;
+        let n = self.count(1, self.meta.len() + self.integers.len())?;
         let level = match self.u8()? {
             0 => {
                 let coordinates = self.f64s(n * 3)?;
@@ -558,6 +561,7 @@ impl Reader<'_> {
             }
             1 => {
                 let lattice = self.lattice()?;
+                self.integers_for(n)?;
                 let centres = self.point_set(n)?.into_iter().map(|k| lattice.point(k)).collect();
                 let weights = self.multiples(n, lattice.weight_step)?;
                 DetailLevel::new(context, radius, centres, weights)?.on_lattice(lattice)

@@ -1,10 +1,13 @@
 //! The octrees' occupancy bytes ([`super::octree`]) arithmetic-coded bit by bit, as Draco and
 //! MPEG G-PCC code point-set geometry: each byte is eight yes-or-no answers ("is child `b`
 //! occupied?"), each coded by `constriction`'s range coder with the probability its context has
-//! learnt so far. A context is the node's depth in its octree, the child's index and how many
-//! of the node's children before it are occupied (0, 1, 2, or more); the eighth child of a node
-//! whose first seven are empty is occupied and costs nothing. Every octree starts from even
-//! odds.
+//! learnt so far. A context is the node's depth in its octree (depths from 15 share one), the
+//! child's index and how many of the node's children before it are occupied (0, 1, 2, or 3 and
+//! more); the eighth child of a node whose first seven are empty is occupied and costs nothing.
+//! Every octree starts from even odds. A probability is `(2 ones + 1) / (2 ones + 2 zeros + 2)`
+//! in 24-bit fixed point, the counts halved (rounding up) when their sum passes 4,096; the coder
+//! is `constriction`'s default range coder (64-bit state, 32-bit words written little-endian).
+//! These numbers are the file format: a test holds the bytes of a fixed octree.
 //!
 //! Near the root most children are occupied, near the leaves one of eight: the contexts learn
 //! both, where zstd over the bytes sees symbols of nearly uniform frequency (the bytes saved
@@ -129,28 +132,35 @@ impl Contexts {
 pub(crate) struct Encoder {
     coder: DefaultRangeEncoder,
     contexts: Contexts,
+    octrees: usize,
 }
 
 impl Default for Encoder {
     fn default() -> Encoder {
-        Encoder { coder: DefaultRangeEncoder::new(), contexts: Contexts::new() }
+        Encoder { coder: DefaultRangeEncoder::new(), contexts: Contexts::new(), octrees: 0 }
     }
 }
 
 impl Encoder {
+    /// Whether no octree was coded.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.octrees == 0
+    }
+
     /// Codes the occupancy bytes `masks` of one octree (breadth first, as
     /// [`super::octree::encode`] writes them).
     pub(crate) fn octree(&mut self, masks: &[u8]) {
         self.contexts = Contexts::new();
+        self.octrees += 1;
         for (depth, mask) in super::octree::depths(masks) {
             let mut seen = 0;
             for child in 0..8 {
                 let bit = mask >> child & 1 == 1;
                 if Contexts::coded(child, seen) {
                     let context = self.contexts.at(depth, child, seen);
-                    // Encoding cannot fail: the model gives every answer a nonzero probability
-                    // and the backend is a vector.
-                    let _ = self.coder.encode_symbol(bit, context.model());
+                    self.coder
+                        .encode_symbol(bit, context.model())
+                        .expect("every answer has a nonzero probability; the backend is a vector");
                     context.learn(bit);
                 }
                 seen += u32::from(bit);
@@ -262,5 +272,24 @@ mod tests {
             assert_eq!(back.unwrap(), *points);
         }
         assert!(decoder.is_done());
+    }
+
+    /// The coded bytes of a fixed octree, which any change to the contexts, the probabilities or
+    /// the coder would change: files already written must keep reading.
+    #[test]
+    fn the_coding_of_a_fixed_octree_is_the_format() {
+        let mut points: Vec<[u64; 3]> =
+            (0..40u64).map(|i| [(i * 5) % 16, (i * 3) % 16, (i * i) % 16]).collect();
+        points.sort_by_key(|&p| crate::geometry::morton_key(p));
+        points.dedup();
+        let mut encoder = Encoder::default();
+        encoder.octree(&super::super::octree::encode(&points, 4));
+        let bytes = encoder.finish();
+        assert_eq!(points.len(), 16);
+        let golden = [
+            7, 20, 168, 235, 199, 235, 137, 78, 19, 193, 177, 108, 144, 48, 228, 251, 215, 102,
+            170, 172, 167, 73, 59, 35,
+        ];
+        assert_eq!(bytes, golden);
     }
 }
