@@ -490,6 +490,15 @@ fn scaled_resolution(resolution: usize, bytes: u64, budget: u64, margin: f64) ->
     (resolution as f64 * (budget as f64 / bytes as f64).sqrt() * margin) as usize
 }
 
+/// The next resolution a search with levels tries above `resolution`, whose fit was `bytes`
+/// within `budget`: the one its size suggests (with a margin) if that is a quarter larger or
+/// more, capped at [`BUDGET_MAX_RESOLUTION`], which is tried whenever it is larger at all.
+fn larger_with_levels(resolution: usize, bytes: u64, budget: u64) -> Option<usize> {
+    let suggested = scaled_resolution(resolution, bytes, budget, 0.9);
+    let larger = suggested.min(BUDGET_MAX_RESOLUTION);
+    (suggested > resolution * 5 / 4 && larger > resolution).then_some(larger)
+}
+
 /// Whether a fit of a byte budget search has detail levels.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Levels {
@@ -603,12 +612,7 @@ impl BudgetSearch<'_, '_> {
     /// than their area (level 0 keeps a goal of at most `max_goal_axis` voxels), so each larger
     /// fit is scaled from the last.
     fn levels_larger(&mut self, mut resolution: usize, mut bytes: u64) {
-        loop {
-            let larger =
-                scaled_resolution(resolution, bytes, self.budget, 0.9).min(BUDGET_MAX_RESOLUTION);
-            if larger <= resolution * 5 / 4 {
-                return;
-            }
+        while let Some(larger) = larger_with_levels(resolution, bytes, self.budget) {
             match self.try_more(larger, BUDGET_LEVELS_TARGET, Levels::FromBudgetMinimum) {
                 Some(larger_bytes) if larger_bytes <= self.budget => {
                     (resolution, bytes) = (larger, larger_bytes);
@@ -1469,6 +1473,19 @@ mod tests {
         let triangles =
             quads.iter().flat_map(|[a, b, c, d]| [[*a, *b, *c], [*a, *c, *d]]).collect();
         Mesh { vertices, triangles }
+    }
+
+    /// A search with levels grows while the budget suggests a quarter more resolution, and
+    /// reaches the largest grid when the suggestion passes it, however near it is.
+    #[test]
+    fn a_budget_search_with_levels_grows_to_the_largest_grid() {
+        // The triceratops at 512 voxels was 30,367 bytes: 100 KB suggests 836 voxels.
+        assert_eq!(larger_with_levels(512, 30_367, 100_000), Some(836));
+        // At 836 voxels, 42,798 bytes: more than 1,024 suggested, so 1,024 (a fifth more).
+        assert_eq!(larger_with_levels(836, 42_798, 100_000), Some(BUDGET_MAX_RESOLUTION));
+        assert_eq!(larger_with_levels(BUDGET_MAX_RESOLUTION, 66_396, 500_000), None);
+        // The bunny at 512 voxels, 79,946 bytes: 100 KB suggests less than a quarter more.
+        assert_eq!(larger_with_levels(512, 79_946, 100_000), None);
     }
 
     #[test]
