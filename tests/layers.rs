@@ -1,9 +1,11 @@
-//! The modules of the crate form layers: in every module that has children (the crate itself,
-//! `rbf`, `fit`, `rbf::kernel`, ...), no child refers to a sibling that refers back to it,
-//! directly or through others. So a stage never imports the front door that chains it.
+//! The modules of every crate of the workspace form layers: in every module that has children
+//! (the library itself, `rbf`, `fit`, `rbf::kernel`, ..., the command and its `cli`, the
+//! Python extension), no child refers to a sibling that refers back to it, directly or through
+//! others. So a stage never imports the front door that chains it. (The Python package's own
+//! modules are held to the same by python/tests/test_layers.py.)
 //!
 //! The children of a module are its files and folders: a file `x.rs` and the folder `x/` count
-//! as one child `x`. The module's own file (`lib.rs` for the crate, `mod.rs`, or `x.rs` beside
+//! as one child `x`. The module's own file (`lib.rs` or `main.rs` for a crate, `mod.rs`, or `x.rs` beside
 //! a folder `x/`) is the facade above them: it defines shared types and re-exports items of
 //! its children; using a type it defines is no edge, using an item it re-exports is an edge
 //! to the child that defines it.
@@ -24,25 +26,52 @@ use std::path::{Path, PathBuf};
 /// A module's dependencies: the other modules it names.
 type Graph = BTreeMap<String, BTreeSet<String>>;
 
-/// A module with children: its path from the crate (empty for the crate) and its folder.
+/// A module with children: its crate's source folder, its path from the crate (empty for the
+/// crate) and its folder.
 struct Parent {
+    krate: &'static str,
     path: Vec<String>,
     folder: PathBuf,
 }
 
+/// The source folders of the workspace's crates: the library, the command, the Python
+/// extension and the tests' shared data.
+const CRATES: [&str; 4] =
+    ["src", "crates/implicitize-cli/src", "python/src", "crates/test-support/src"];
+
 #[test]
 fn no_module_has_children_in_an_import_cycle() {
     let parents = parents();
-    assert!(parents.len() >= 10, "too few modules with children: {}", parents.len());
+    assert!(parents.len() >= 14, "too few modules with children: {}", parents.len());
     for parent in &parents {
         let graph = graph_of(&read_folder(&parent.folder), &parent.path);
         if let Some(cycle) = find_cycle(&graph) {
             panic!(
-                "the children of `crate{}` refer to each other in a cycle: {}",
+                "the children of `crate{}` ({}) refer to each other in a cycle: {}",
                 parent.path.iter().map(|p| format!("::{p}")).collect::<String>(),
+                parent.krate,
                 cycle.join(" -> ")
             );
         }
+    }
+}
+
+/// No stage names the front door: outside `pipeline` itself, only the crate's facade and
+/// `batch` (a front door over many fits) name `crate::pipeline` in code.
+#[test]
+fn only_the_front_doors_name_the_pipeline() {
+    let files = read_folder(&src());
+    assert!(files.len() > 30, "too few files: {}", files.len());
+    for (path, text) in &files {
+        let front_door = path.starts_with("pipeline")
+            || ["lib.rs", "batch.rs"].contains(&path.to_str().unwrap());
+        let tokens = tokens(text);
+        let names = tokens.windows(3).any(|w| {
+            (w[0] == "crate" || (w[0] == "super" && path.components().count() == 1))
+                && w[1] == "::"
+                && w[2] == "pipeline"
+        });
+        assert!(front_door || !names, "{} names crate::pipeline", path.display());
     }
 }
 
@@ -120,14 +149,19 @@ fn crate_paths_are_resolved_from_the_module_they_name() {
     assert_eq!(graph["x"], BTreeSet::from(["y".to_string()]));
 }
 
-/// The crate's `src` folder.
+/// The library's `src` folder.
 fn src() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
 }
 
-/// The crate and every module of it that is a folder, with its path from the crate.
+/// Every crate of the workspace and every module of it that is a folder, with its path from
+/// its crate.
 fn parents() -> Vec<Parent> {
-    let mut parents = vec![Parent { path: Vec::new(), folder: src() }];
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut parents: Vec<Parent> = CRATES
+        .iter()
+        .map(|&krate| Parent { krate, path: Vec::new(), folder: root.join(krate) })
+        .collect();
     let mut i = 0;
     while i < parents.len() {
         let mut children: Vec<PathBuf> = std::fs::read_dir(&parents[i].folder)
@@ -139,7 +173,7 @@ fn parents() -> Vec<Parent> {
         for folder in children {
             let mut path = parents[i].path.clone();
             path.push(folder.file_name().unwrap().to_string_lossy().into_owned());
-            parents.push(Parent { path, folder });
+            parents.push(Parent { krate: parents[i].krate, path, folder });
         }
         i += 1;
     }
@@ -194,9 +228,9 @@ fn graph_of(files: &[(PathBuf, String)], parent: &[String]) -> Graph {
 }
 
 /// The module path of a file below the parent's folder: `x.rs` and `x/mod.rs` are `[x]`,
-/// `x/y.rs` is `[x, y]`, the facade `mod.rs` (the crate's `lib.rs`) is `[]`.
+/// `x/y.rs` is `[x, y]`, the facade `mod.rs` (a crate's `lib.rs` or `main.rs`) is `[]`.
 fn module_path(path: &Path) -> Vec<String> {
-    if path == Path::new("lib.rs") {
+    if path == Path::new("lib.rs") || path == Path::new("main.rs") {
         return Vec::new();
     }
     let mut parts: Vec<String> =

@@ -11,6 +11,9 @@
 //! | polygonize a model's zero set | [`PolygonizeOptions`] | [`polygonize`] |
 //! | many meshes into one folder | [`crate::batch::BatchOptions`] | [`crate::batch::run`] |
 //!
+//! A fit's settings as users give them, by name, and their conversion into [`MeshFitOptions`]
+//! are [`settings`] (also `implicitize::settings`).
+//!
 //! The options are `#[non_exhaustive]`: made with `Default::default()` and changed field by
 //! field, so a new setting breaks no caller. Each job checks its options and its memory
 //! estimate ([`crate::memory`]) against the caller's [`MemoryLimit`] before it allocates its
@@ -56,6 +59,8 @@ use crate::sample::Samples;
 use crate::shape::Shape;
 use crate::voxelize::shell::{self, Shell};
 use crate::voxelize::{self, Inside, VoxelizeOptions, Voxelized};
+
+pub mod settings;
 
 /// How the constraints of a fit are made.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]

@@ -19,11 +19,11 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use super::{MeshFitOptions, Method};
 use crate::error::{Error, Result};
 use crate::fit::{ErrorMeasure, FitOptions, LevelOptions, MAX_CONSTRAINTS};
 use crate::grid::Resolution;
 use crate::memory::MemoryLimit;
-use crate::pipeline::{MeshFitOptions, Method};
 
 /// A fit's settings as the user gives them; `None` or `false`: the library's default (see
 /// [`fit_settings`] for each one's meaning, unit and default).
