@@ -1,11 +1,15 @@
 //! The fit's settings by their user-facing names (`implicitize::settings`): the struct and its
-//! table agree, each setting reaches the library's options, and a settings file is read
-//! through the same struct.
+//! table agree, each setting reaches the library's options, a settings file is read through
+//! the same struct, values read by each setting's kind become it, and the docs' table and
+//! Python's stub are made from the table.
+
+use std::path::Path;
 
 use implicitize::memory::MemoryLimit;
 use implicitize::pipeline::{MeshFitOptions, Method};
-use implicitize::settings::{FitSettings, fit_settings};
+use implicitize::settings::{FitSettings, Kind, fit_settings, from_values};
 use implicitize::{Error, Resolution};
+use serde_json::json;
 
 /// The table lists the struct's fields, in its order: a field added to one is added to both.
 #[test]
@@ -119,4 +123,125 @@ fn a_settings_file_is_read_and_an_unknown_key_named() {
     assert!(error.contains("\"max_iterations\"") && !error.contains("options"), "{error}");
     let missing = FitSettings::read(&dir.path().join("none.toml")).unwrap_err().to_string();
     assert!(missing.contains("none.toml"), "{missing}");
+}
+
+/// Values by setting name, as the command line and Python read them, become the struct: each
+/// setting takes a value of its kind (so a kind names its field's type), text takes a number
+/// as its text, and a name that is no setting or a value of another kind is refused, named.
+#[test]
+fn values_of_each_kind_become_the_settings() {
+    let sample = |kind: Kind| -> serde_json::Value {
+        match kind {
+            Kind::Count => json!(3),
+            Kind::Number => json!(1.5),
+            Kind::Counts3 => json!([4, 5, 6]),
+            Kind::Switch => json!(true),
+            Kind::Choice(words) => json!(words[words.len() - 1]),
+            Kind::Text => json!("2"),
+        }
+    };
+    let unset = serde_json::to_value(FitSettings::default()).unwrap();
+    for setting in fit_settings() {
+        let value = sample(setting.kind);
+        let values = serde_json::Map::from_iter([(setting.name.to_string(), value.clone())]);
+        let settings = from_values(values, "options").unwrap_or_else(|e| panic!("{e}"));
+        let read = &serde_json::to_value(&settings).unwrap()[setting.name];
+        assert!(read != &unset[setting.name], "{}: {read}", setting.name);
+        assert_eq!(read, &value, "{}", setting.name);
+    }
+    let shell = serde_json::Map::from_iter([("shell".to_string(), json!(2))]);
+    assert_eq!(from_values(shell, "options").unwrap().shell.as_deref(), Some("2"));
+    let unknown = serde_json::Map::from_iter([("resolutoin".to_string(), json!(3))]);
+    let e = from_values(unknown, "options").unwrap_err().to_string();
+    assert!(e.contains("`resolutoin` is not a fit setting"), "{e}");
+    let negative = serde_json::Map::from_iter([("levels".to_string(), json!(-1))]);
+    let e = from_values(negative, "options").unwrap_err().to_string();
+    assert!(e.contains("`levels` takes a whole number of 0 or more, not -1"), "{e}");
+    let null = serde_json::Map::from_iter([("seed".to_string(), serde_json::Value::Null)]);
+    assert_eq!(from_values(null, "options").unwrap(), FitSettings::default());
+}
+
+/// The table of the fit's settings in docs/cli.md is the one the library's table makes, and
+/// the fit's declaration in Python's stub (python/implicitize/__init__.pyi) too: both are made
+/// here, so a setting added to the library reaches them by `IMPLICITIZE_BLESS=1 cargo test
+/// --test settings`, which writes them, and this test fails until then.
+#[test]
+fn the_docs_table_and_the_python_stub_are_made_from_the_table() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    made_between(
+        &root.join("docs/cli.md"),
+        "<!-- the fit's settings",
+        "<!-- end of the fit's settings -->",
+        &docs_table(),
+    );
+    made_between(
+        &root.join("python/implicitize/__init__.pyi"),
+        "# the fit's settings",
+        "# end of the fit's settings",
+        &python_stub(),
+    );
+}
+
+/// The docs' table: each setting's flag and keyword, unit, default and help.
+fn docs_table() -> String {
+    let mut table = String::from(
+        "| flag (Python keyword, settings-file key) | value | default | what it does |\n\
+         |---|---|---|---|\n",
+    );
+    for setting in fit_settings() {
+        let flag = match setting.value_name {
+            "" => setting.flag(),
+            value => format!("{} {value}", setting.flag()),
+        };
+        let default = setting.default.as_deref().unwrap_or("");
+        table.push_str(&format!(
+            "| `{flag}` (`{}`) | {} | {default} | {} |\n",
+            setting.name, setting.unit, setting.help
+        ));
+    }
+    table
+}
+
+/// The declaration of `implicitize.fit` in Python's stub: each setting a keyword of the type
+/// its kind reads.
+fn python_stub() -> String {
+    let mut stub = String::from("def fit(\n    mesh: Any,\n    *,\n");
+    for setting in fit_settings() {
+        let typed = match setting.kind {
+            Kind::Count => "Optional[int] = None",
+            Kind::Number => "Optional[float] = None",
+            Kind::Counts3 => "Optional[Sequence[int]] = None",
+            Kind::Switch => "bool = False",
+            Kind::Choice(_) => "Optional[str] = None",
+            Kind::Text => "Union[float, str, None] = None",
+        };
+        stub.push_str(&format!("    {}: {typed},\n", setting.name));
+    }
+    stub.push_str(
+        "    progress: bool = False,\n    memory_limit: _Memory = None,\n) -> Model:\n    \
+         \"\"\"Fits a variational implicit surface to ``mesh``, as ``implicitize fit``; None is \
+         the\n    library's default (FIT_SETTINGS), MemoryError beyond ``memory_limit``.\"\"\"\n",
+    );
+    stub
+}
+
+/// Checks that the lines of `path` after the line starting with `begin` and before the one
+/// starting with `end` are `text`; writes them where `IMPLICITIZE_BLESS` is set.
+fn made_between(path: &Path, begin: &str, end: &str, text: &str) {
+    let source = std::fs::read_to_string(path).unwrap();
+    let start = source.find(begin).unwrap_or_else(|| panic!("{}: no {begin}", path.display()));
+    let start = start + source[start..].find('\n').unwrap() + 1;
+    let stop = start + source[start..].find(end).unwrap_or_else(|| panic!("no {end}"));
+    if source[start..stop] == *text {
+        return;
+    }
+    if std::env::var_os("IMPLICITIZE_BLESS").is_some() {
+        std::fs::write(path, format!("{}{text}{}", &source[..start], &source[stop..])).unwrap();
+        return;
+    }
+    panic!(
+        "{} is not what the settings' table makes: IMPLICITIZE_BLESS=1 cargo test --test \
+         settings writes it",
+        path.display()
+    );
 }

@@ -19,6 +19,7 @@ machine has available) raises ``MemoryError`` before it allocates, naming the la
 
 from __future__ import annotations
 
+import inspect as _inspect
 import os as _os
 from dataclasses import dataclass as _dataclass
 from typing import Any, Optional, Sequence, Tuple, Union
@@ -56,8 +57,9 @@ __all__ = [
 #: ``near_surface``, ``uniform``).
 DEFAULTS = dict(_defaults())
 
-#: Every keyword of :func:`fit` that the library defines (``name``, ``unit``, ``default`` as
-#: text or None, ``help``), the settings ``implicitize fit --config FILE`` reads by the same names.
+#: Every keyword of :func:`fit` that the library defines (``name``, ``kind``, ``choices``,
+#: ``value_name``, ``unit``, ``default`` as text or None, ``excludes``, ``help``), the settings
+#: ``implicitize fit --config FILE`` reads by the same names.
 FIT_SETTINGS = [dict(setting) for setting in _fit_settings()]
 
 _Memory = Union[int, str, None]
@@ -221,68 +223,69 @@ def sample(
     return {"points": points, "sdf": sdf, "pos": pos, "neg": neg}
 
 
-@_documented
 def fit(
-    mesh: Any,
-    resolution: Optional[int] = None,
-    target_error: Optional[float] = None,
-    seed: Optional[int] = None,
-    max_constraints: Optional[int] = None,
-    method: Optional[str] = None,
-    progress: bool = False,
-    *,
-    dims: Optional[Sequence[int]] = None,
-    max_iterations: Optional[int] = None,
-    subvoxel: bool = False,
-    full_resolution: bool = False,
-    levels: Optional[int] = None,
-    shell: Union[float, str, None] = None,
-    solid: bool = False,
-    max_bytes: Optional[int] = None,
-    memory_limit: _Memory = None,
+    mesh: Any, *, progress: bool = False, memory_limit: _Memory = None, **settings: Any
 ) -> Model:
-    """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``.
+    # The keywords and this docstring are made from the library's table (FIT_SETTINGS) below.
+    return _fit(_mesh_arg(mesh), progress=bool(progress), memory_limit=memory_limit, **settings)
 
-    ``resolution`` voxels along the longest axis (default {resolution}; or ``dims=``); stops once
-    the max error E is at most ``target_error`` voxels (default {target_error}); ``seed``
-    (default {seed}) seeds every random choice (same seed, same model file); ``method`` is
-    ``"iterative"`` (paper 5, the default) or ``"naive"`` (paper 3.2); at most
-    ``max_constraints`` constraints (default {max_constraints}, {naive_max_constraints} for the
-    naive method) and ``max_iterations`` iterations (default {max_iterations}); on grids of
-    {levels_min_axis} voxels or more, and for every ``shell``, at most ``levels`` detail levels
-    (default {levels}; 0 fits one function as the paper does; above {levels_max_goal_axis}
-    voxels the goal is voxelized at half the resolution and the levels reach the grid through
-    points on the mesh); ``progress`` prints one line per
-    iteration on stderr;
-    ``shell`` fits the surface thickened to that thickness in all (a number of voxels, or a
-    string such as ``"0.01u"`` in mesh units), for open shells and walls too thin for the grid;
-    a mesh so open that its inside is a guess over more than a fifth of the grid (winding
-    numbers near one half) raises ``ValueError`` unless ``shell`` is given or ``solid`` is true,
-    which fits the guessed solid anyway;
-    ``max_bytes`` returns the most accurate model whose binary file (``Model.save``) has at most
-    that many bytes, choosing the resolution, target and detail levels (the report's
-    ``byte_budget`` lists the fits tried), and raises ``ValueError`` naming the smallest size
-    when no model fits;
-    ``memory_limit`` as in :func:`voxelize`. The GIL is released while fitting. An open mesh
-    and thin walls the fit goes ahead with are reported as ``UserWarning``.
-    """
-    return _fit(
-        _mesh_arg(mesh),
-        *_grid_args(resolution, dims),
-        target_error=None if target_error is None else float(target_error),
-        seed=None if seed is None else int(seed),
-        max_constraints=max_constraints,
-        method=method,
-        max_iterations=max_iterations,
-        subvoxel=subvoxel,
-        full_resolution=full_resolution,
-        levels=None if levels is None else int(levels),
-        shell=shell,
-        solid=bool(solid),
-        max_bytes=None if max_bytes is None else int(max_bytes),
-        progress=progress,
-        memory_limit=memory_limit,
+
+#: The annotation of a setting's keyword, by its kind (FIT_SETTINGS' ``kind``).
+_KIND_TYPES = {
+    "count": Optional[int],
+    "number": Optional[float],
+    "counts3": Optional[Sequence[int]],
+    "switch": bool,
+    "choice": Optional[str],
+    "text": Union[float, str, None],
+}
+
+
+def _fit_signature() -> _inspect.Signature:
+    """``fit(mesh, *, <every setting>, progress=False, memory_limit=None)``."""
+    keyword = _inspect.Parameter.KEYWORD_ONLY
+    settings = [
+        _inspect.Parameter(
+            s["name"],
+            keyword,
+            default=False if s["kind"] == "switch" else None,
+            annotation=_KIND_TYPES[s["kind"]],
+        )
+        for s in FIT_SETTINGS
+    ]
+    return _inspect.Signature(
+        [_inspect.Parameter("mesh", _inspect.Parameter.POSITIONAL_OR_KEYWORD, annotation=Any)]
+        + settings
+        + [
+            _inspect.Parameter("progress", keyword, default=False, annotation=bool),
+            _inspect.Parameter("memory_limit", keyword, default=None, annotation=_Memory),
+        ],
+        return_annotation=Model,
     )
+
+
+def _fit_doc() -> str:
+    """The docstring of :func:`fit`: each setting's unit, default and help from the table."""
+    lines = []
+    for s in FIT_SETTINGS:
+        default = "" if s["default"] is None else f"; default {s['default']}"
+        lines.append(f"``{s['name']}`` ({s['unit']}{default}): {s['help']}.")
+    return (
+        "Fits a variational implicit surface to ``mesh``, as ``implicitize fit``.\n\n"
+        "The fit's settings are keywords (``FIT_SETTINGS``, the names ``implicitize fit --config"
+        " FILE`` reads); one left out or ``None`` takes the library's default:\n\n"
+        + "\n".join(lines)
+        + "\n\n``progress`` prints one line per iteration on stderr; ``memory_limit`` as in "
+        ":func:`voxelize`. A keyword that is no setting raises ``TypeError``, a value out of "
+        "its range ``ValueError``; a mesh so open that its inside is a guess over more than a "
+        "fifth of the grid raises ``ValueError`` unless ``shell`` or ``solid`` is given, and "
+        "a budget below the smallest model names its size. The GIL is released while fitting. "
+        "An open mesh and thin walls the fit goes ahead with are reported as ``UserWarning``.\n"
+    )
+
+
+fit.__signature__ = _fit_signature()  # type: ignore[attr-defined]
+fit.__doc__ = _fit_doc()
 
 
 def load(path: Union[str, "_os.PathLike[str]"]) -> Model:

@@ -120,16 +120,16 @@ def sample(
     """``points``, ``sdf`` (inside positive) and DeepSDF's ``pos`` and ``neg``, as
     ``implicitize sample``; None is DEFAULTS' value, MemoryError beyond ``memory_limit``."""
 
+# the fit's settings: made by tests/settings.rs from the library's table (IMPLICITIZE_BLESS=1)
 def fit(
     mesh: Any,
+    *,
     resolution: Optional[int] = None,
+    dims: Optional[Sequence[int]] = None,
     target_error: Optional[float] = None,
     seed: Optional[int] = None,
     max_constraints: Optional[int] = None,
     method: Optional[str] = None,
-    progress: bool = False,
-    *,
-    dims: Optional[Sequence[int]] = None,
     max_iterations: Optional[int] = None,
     subvoxel: bool = False,
     full_resolution: bool = False,
@@ -137,10 +137,12 @@ def fit(
     shell: Union[float, str, None] = None,
     solid: bool = False,
     max_bytes: Optional[int] = None,
+    progress: bool = False,
     memory_limit: _Memory = None,
 ) -> Model:
-    """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``; None is
-    DEFAULTS' value, MemoryError beyond ``memory_limit``."""
+    """Fits a variational implicit surface to ``mesh``, as ``implicitize fit``; None is the
+    library's default (FIT_SETTINGS), MemoryError beyond ``memory_limit``."""
+# end of the fit's settings
 
 def load(path: _Path) -> Model:
     """Reads a model file."""

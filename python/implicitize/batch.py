@@ -34,7 +34,6 @@ def convert(input: str, name: str, out_dir: str, options: Dict[str, Any]) -> str
 
 
 def _parser() -> argparse.ArgumentParser:
-    defaults = _implicitize.defaults()
     parser = argparse.ArgumentParser(
         prog="python -m implicitize.batch",
         description="Fit many meshes on Dask distributed into one folder, with a manifest.",
@@ -51,50 +50,9 @@ def _parser() -> argparse.ArgumentParser:
         help="also write N samples of each mesh's exact signed distance (NAME.samples.npz)",
     )
     parser.add_argument("--quiet", "-q", action="store_true", help="print no progress")
-    grid = parser.add_mutually_exclusive_group()
-    grid.add_argument(
-        "--resolution",
-        type=int,
-        help=f"voxels along each mesh's longest axis (default {defaults['resolution']})",
-    )
-    grid.add_argument("--dims", type=int, nargs=3, help="an exact grid size NX NY NZ")
-    parser.add_argument("--seed", type=int, help=f"(default {defaults['seed']})")
-    parser.add_argument(
-        "--target-error", type=float, help=f"voxels (default {defaults['target_error']})"
-    )
-    parser.add_argument(
-        "--max-constraints",
-        type=int,
-        help=f"(default {defaults['max_constraints']}; "
-        f"{defaults['naive_max_constraints']} with --method naive)",
-    )
-    parser.add_argument(
-        "--max-iterations", type=int, help=f"(default {defaults['max_iterations']})"
-    )
-    parser.add_argument(
-        "--method", choices=["iterative", "naive"], help=f"(default {defaults['method']})"
-    )
-    parser.add_argument("--subvoxel", action="store_true")
-    parser.add_argument("--full-resolution", action="store_true")
-    parser.add_argument(
-        "--levels",
-        type=int,
-        help=f"detail levels on grids of {defaults['levels_min_axis']} voxels or more "
-        f"(default {defaults['levels']}; 0: none)",
-    )
-    parser.add_argument(
-        "--shell", help="fit the surface thickened to T: voxels (as 2) or mesh units (as 0.01u)"
-    )
-    parser.add_argument(
-        "--solid",
-        action="store_true",
-        help="fit the guessed solid of a mesh whose inside is a guess over much of the grid",
-    )
-    parser.add_argument(
-        "--max-bytes",
-        type=int,
-        help="the most accurate model whose binary file has at most this many bytes",
-    )
+    # The fit's settings, each a flag made from the library's table (FIT_SETTINGS).
+    for setting in _implicitize.fit_settings():
+        _add_setting(parser, setting)
     parser.add_argument(
         "--memory-limit",
         help="bytes, or a size such as 2G (default: the machine's available memory)",
@@ -102,25 +60,36 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: How argparse reads a value of each kind of setting (FIT_SETTINGS' ``kind``).
+_KIND_ARGUMENTS: Dict[str, Dict[str, Any]] = {
+    "count": {"type": int},
+    "number": {"type": float},
+    "counts3": {"type": int, "nargs": 3},
+    "switch": {"action": "store_true"},
+    "choice": {},
+    "text": {},
+}
+
+
+def _add_setting(parser: argparse.ArgumentParser, setting: Dict[str, Any]) -> None:
+    """The flag of a fit setting: its name, value, help and default from the table."""
+    default = "" if setting["default"] is None else f" (default {setting['default']})"
+    arguments = dict(_KIND_ARGUMENTS[setting["kind"]], help=setting["help"] + default)
+    if setting["choices"]:
+        arguments["choices"] = setting["choices"]
+    if setting["kind"] == "counts3":
+        arguments["metavar"] = tuple(setting["value_name"].split())
+    elif setting["kind"] != "switch":
+        arguments["metavar"] = setting["value_name"]
+    parser.add_argument("--" + setting["name"].replace("_", "-"), **arguments)
+
+
 def _options(args: argparse.Namespace) -> Dict[str, Any]:
-    return {
-        "resolution": args.resolution,
-        "dims": args.dims,
-        "target_error": args.target_error,
-        "seed": args.seed,
-        "max_constraints": args.max_constraints,
-        "method": args.method,
-        "max_iterations": args.max_iterations,
-        "subvoxel": args.subvoxel,
-        "full_resolution": args.full_resolution,
-        "levels": args.levels,
-        "shell": args.shell,
-        "solid": args.solid,
-        "max_bytes": args.max_bytes,
-        "sdf": args.sdf,
-        "samples": args.samples,
-        "memory_limit": args.memory_limit,
-    }
+    """The keywords of ``batch_convert``: every fit setting given, and the batch's own."""
+    names = [setting["name"] for setting in _implicitize.fit_settings()]
+    settings = {name: getattr(args, name) for name in names}
+    given = {name: value for name, value in settings.items() if value not in (None, False)}
+    return dict(given, sdf=args.sdf, samples=args.samples, memory_limit=args.memory_limit)
 
 
 def _client(scheduler: Optional[str], workers: Optional[int]) -> Any:

@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 
 use implicitize::batch::{self, BatchOptions, Entry, Job};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::{FitArgs, MemoryArg, ShellArg};
+use crate::inputs::{MemoryArg, fit_options};
 
 /// The mesh files `inputs` name (files, folders, `@LIST` files), each with the name of its
 /// outputs: `[(input, name), ...]` in order.
@@ -21,36 +22,22 @@ pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
 
 /// Converts one mesh into `out_dir` (or takes its complete outputs from an earlier run) and
 /// returns its manifest line (JSON). Never raises for a bad mesh: its line says `failed`.
-/// The options are `fit`'s (every `None` the library's default), `sdf` and `samples` (the
+/// The options are `fit`'s keywords (every `None` the library's default), `sdf` and `samples` (the
 /// number of samples of the mesh's signed distance to write, if any); a bad option raises
 /// `ValueError`. `memory_limit` is this mesh's. The GIL is released meanwhile.
 #[pyfunction]
-#[pyo3(signature = (input, name, out_dir, resolution=None, dims=None, target_error=None,
-                    seed=None, max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, levels=None, shell=None, solid=false, max_bytes=None,
-                    sdf=false, samples=None, memory_limit=None))]
+#[pyo3(signature = (input, name, out_dir, sdf=false, samples=None, memory_limit=None,
+                    **settings))]
 #[allow(clippy::too_many_arguments)]
 pub fn batch_convert(
     py: Python<'_>,
     input: PathBuf,
     name: String,
     out_dir: PathBuf,
-    resolution: Option<i64>,
-    dims: Option<Vec<i64>>,
-    target_error: Option<f64>,
-    seed: Option<u64>,
-    max_constraints: Option<i64>,
-    method: Option<String>,
-    max_iterations: Option<i64>,
-    subvoxel: bool,
-    full_resolution: bool,
-    levels: Option<i64>,
-    shell: Option<ShellArg>,
-    solid: bool,
-    max_bytes: Option<i64>,
     sdf: bool,
     samples: Option<i64>,
     memory_limit: Option<MemoryArg>,
+    settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<String> {
     let samples = samples
         .map(|n| {
@@ -60,23 +47,7 @@ pub fn batch_convert(
                 .ok_or_else(|| invalid(format!("samples must be a positive count, not {n}")))
         })
         .transpose()?;
-    let fit = FitArgs {
-        resolution,
-        dims,
-        target_error,
-        seed,
-        max_constraints,
-        method,
-        max_iterations,
-        subvoxel,
-        full_resolution,
-        levels,
-        shell,
-        solid,
-        max_bytes,
-        memory_limit,
-    }
-    .options()?;
+    let fit = fit_options("batch_convert", settings, memory_limit)?;
     let mut options = BatchOptions::default();
     options.fit = fit;
     options.sdf = sdf;

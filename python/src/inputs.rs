@@ -5,11 +5,12 @@ use std::path::PathBuf;
 
 use implicitize::memory::{self, MemoryLimit};
 use implicitize::pipeline::{MeshFitOptions, MeshSource};
-use implicitize::settings::FitSettings;
+use implicitize::settings::{Kind, Setting};
 use implicitize::{DVec3, Mesh, Resolution, mesh};
 use numpy::{PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBool, PyDict};
 
 use crate::errors::{invalid, to_py};
 
@@ -181,103 +182,67 @@ pub fn memory_limit(limit: Option<MemoryArg>) -> PyResult<MemoryLimit> {
     }
 }
 
-/// A count Python gives (`max_iterations=`, `max_constraints=`), checked positive.
-fn count(what: &str, n: i64) -> PyResult<usize> {
-    usize::try_from(n)
-        .ok()
-        .filter(|&n| n > 0)
-        .ok_or_else(|| invalid(format!("{what} must be a positive count, not {n}")))
-}
-
-/// The options of a fit, as `implicitize fit` takes them; `None` is the library's default.
-pub struct FitArgs {
-    /// Voxels along the longest axis (`resolution=`), or
-    pub resolution: Option<i64>,
-    /// voxels along each axis (`dims=`); the default resolution when neither is given.
-    pub dims: Option<Vec<i64>>,
-    /// Stop once E is at most this (voxels).
-    pub target_error: Option<f64>,
-    /// The seed of the random choices.
-    pub seed: Option<u64>,
-    /// Never more constraints than this.
-    pub max_constraints: Option<i64>,
-    /// "iterative" or "naive".
-    pub method: Option<String>,
-    /// Stop after this many iterations.
-    pub max_iterations: Option<i64>,
-    /// Measure E from points on the surfaces.
-    pub subvoxel: bool,
-    /// No start at half the resolution.
-    pub full_resolution: bool,
-    /// At most this many detail levels (0: none).
-    pub levels: Option<i64>,
-    /// Fit the surface thickened to this (`shell=`): voxels as a number, mesh units as a
-    /// string with the suffix `u`.
-    pub shell: Option<ShellArg>,
-    /// Fit the guessed solid of a mesh open over much of the grid (`solid=`).
-    pub solid: bool,
-    /// The most accurate model within this many bytes of binary model file (`max_bytes=`).
-    pub max_bytes: Option<i64>,
-    /// The memory the fit may use.
-    pub memory_limit: Option<MemoryArg>,
-}
-
-/// A shell's thickness as Python gives it: a number of voxels, or a string as the command
-/// line's (`"2"`, `"0.01u"`).
-#[derive(FromPyObject)]
-pub enum ShellArg {
-    /// Voxels.
-    Voxels(f64),
-    /// `"2"` or `"0.01u"`.
-    Text(String),
-}
-
-impl ShellArg {
-    /// The thickness as the library's settings spell it: `"2"` voxels, `"0.01u"` mesh units.
-    fn text(self) -> String {
-        match self {
-            ShellArg::Voxels(t) => t.to_string(),
-            ShellArg::Text(text) => text,
+/// The fit's settings from Python's keywords (`settings`, by name; `None` is not given),
+/// each read as the library's table says ([`Kind`]) and checked there; the options they make,
+/// under the memory limit `memory`. A keyword that is no setting is a `TypeError` naming it, as Python's
+/// own are.
+pub fn fit_options(
+    function: &str,
+    settings: Option<&Bound<'_, PyDict>>,
+    memory: Option<MemoryArg>,
+) -> PyResult<MeshFitOptions> {
+    let table = implicitize::settings::fit_settings();
+    let mut values = serde_json::Map::new();
+    for (key, value) in settings.into_iter().flat_map(|d| d.iter()) {
+        let name: String = key.extract()?;
+        let Some(setting) = table.iter().find(|s| s.name == name) else {
+            return Err(PyTypeError::new_err(format!(
+                "{function}() got an unexpected keyword argument '{name}'"
+            )));
+        };
+        if !value.is_none() {
+            values.insert(name, setting_value(setting, &value)?);
         }
     }
+    let settings = implicitize::settings::from_values(values, "options").map_err(to_py)?;
+    settings.options("options", memory_limit(memory)?).map_err(to_py)
 }
 
-impl FitArgs {
-    /// The library's settings ([`FitSettings`]) for these keywords, Python's integers checked
-    /// for their sign; the library turns them into its options and checks their ranges.
-    pub fn options(self) -> PyResult<MeshFitOptions> {
-        let mut settings = FitSettings::default();
-        match resolution(self.resolution, self.dims)? {
-            Resolution::Dims(dims) => settings.dims = Some(dims),
-            Resolution::LongestAxis(n) => settings.resolution = Some(n),
+/// `value` as the library reads the setting: by its kind.
+fn setting_value(setting: &Setting, value: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
+    use serde_json::Value;
+    let name = setting.name;
+    let wrong = || {
+        let shown = value.repr().map_or_else(|_| "?".into(), |r| r.to_string());
+        invalid(format!("{name} must be {}, not {shown}", setting.kind.words()))
+    };
+    let number = |x: f64| serde_json::Number::from_f64(x).map(Value::Number);
+    let whole = |v: &Bound<'_, PyAny>| {
+        (!v.is_instance_of::<PyBool>())
+            .then(|| v.extract::<i64>().ok())
+            .flatten()
+            .and_then(|n| u64::try_from(n).ok())
+    };
+    match setting.kind {
+        Kind::Switch => Ok(Value::Bool(value.is_truthy()?)),
+        Kind::Count => whole(value).map(Value::from).ok_or_else(wrong),
+        Kind::Number => value.extract::<f64>().ok().and_then(number).ok_or_else(|| {
+            invalid(format!(
+                "{name} must be a finite number, not {}",
+                value.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+            ))
+        }),
+        Kind::Counts3 => {
+            let items: Vec<Bound<'_, PyAny>> =
+                value.try_iter().map_err(|_| wrong())?.collect::<PyResult<_>>()?;
+            let counts: Option<Vec<u64>> = items.iter().map(whole).collect();
+            counts.filter(|c| c.len() == 3).map(Value::from).ok_or_else(wrong)
         }
-        settings.method = self.method;
-        settings.target_error = self.target_error;
-        settings.seed = self.seed;
-        settings.max_iterations =
-            self.max_iterations.map(|n| count("max_iterations", n)).transpose()?;
-        settings.max_constraints =
-            self.max_constraints.map(|n| count("max_constraints", n)).transpose()?;
-        settings.subvoxel = self.subvoxel;
-        settings.full_resolution = self.full_resolution;
-        settings.levels = self
-            .levels
-            .map(|n| {
-                usize::try_from(n)
-                    .map_err(|_| invalid(format!("levels must be a count of 0 or more, not {n}")))
-            })
-            .transpose()?;
-        settings.shell = self.shell.map(ShellArg::text);
-        settings.solid = self.solid;
-        settings.max_bytes = self
-            .max_bytes
-            .map(|n| {
-                u64::try_from(n).ok().filter(|&n| n > 0).ok_or_else(|| {
-                    invalid(format!("max_bytes must be a positive number of bytes, not {n}"))
-                })
-            })
-            .transpose()?;
-        settings.options("options", memory_limit(self.memory_limit)?).map_err(to_py)
+        Kind::Choice(_) => value.extract::<String>().map(Value::String).map_err(|_| wrong()),
+        Kind::Text => match value.extract::<String>() {
+            Ok(text) => Ok(Value::String(text)),
+            Err(_) => value.extract::<f64>().ok().and_then(number).ok_or_else(wrong),
+        },
     }
 }
 

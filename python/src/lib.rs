@@ -10,6 +10,7 @@
 use implicitize::Resolution;
 use implicitize::fit::FitOptions;
 use implicitize::pipeline::{Method, SampleOptions};
+use implicitize::settings::Kind;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -73,18 +74,31 @@ fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(defaults)
 }
 
-/// Every setting of a fit (`implicitize::settings::fit_settings`): its name (the keyword),
-/// unit, default as text (`None` where nothing given means something else) and one line of
-/// help, as dicts.
+/// Every setting of a fit (`implicitize::settings::fit_settings`), as dicts: its name (the
+/// keyword), kind (`count`, `number`, `counts3`, `switch`, `choice` with its `choices`,
+/// `text`), value name, unit, default as text (`None` where nothing given means something
+/// else), the setting it excludes, and its help.
 #[pyfunction]
 fn fit_settings(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
     implicitize::settings::fit_settings()
         .into_iter()
         .map(|setting| {
             let dict = PyDict::new(py);
+            let (kind, choices) = match setting.kind {
+                Kind::Count => ("count", None),
+                Kind::Number => ("number", None),
+                Kind::Counts3 => ("counts3", None),
+                Kind::Switch => ("switch", None),
+                Kind::Choice(words) => ("choice", Some(words.to_vec())),
+                Kind::Text => ("text", None),
+            };
             dict.set_item("name", setting.name)?;
+            dict.set_item("kind", kind)?;
+            dict.set_item("choices", choices)?;
+            dict.set_item("value_name", setting.value_name)?;
             dict.set_item("unit", setting.unit)?;
             dict.set_item("default", setting.default)?;
+            dict.set_item("excludes", setting.excludes)?;
             dict.set_item("help", setting.help)?;
             Ok(dict)
         })

@@ -13,11 +13,11 @@ use implicitize::{DVec3, Field, Implicit, Model};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
+use pyo3::types::{PyBytes, PyDict};
 use rayon::prelude::*;
 
 use crate::errors::{invalid, to_py};
-use crate::inputs::{self, FitArgs, MemoryArg, MeshArg, ShellArg};
+use crate::inputs::{self, MemoryArg, MeshArg};
 
 /// A mesh as Python gets it: vertices (N, 3) and faces (M, 3).
 type MeshArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<u32>>);
@@ -260,50 +260,19 @@ impl FitObserver for Progress {
     }
 }
 
-/// Fits `mesh` (paper 5, or 3.2 with method "naive") as `implicitize fit` does; every `None`
-/// is the library's default.
+/// Fits `mesh` (paper 5, or 3.2 with method "naive") as `implicitize fit` does, with the
+/// fit's settings as keywords (`implicitize::settings::fit_settings`; a `None` is the
+/// library's default).
 #[pyfunction]
-#[pyo3(signature = (mesh, resolution=None, dims=None, target_error=None, seed=None,
-                    max_constraints=None, method=None, max_iterations=None,
-                    subvoxel=false, full_resolution=false, levels=None, shell=None, solid=false,
-                    max_bytes=None, progress=false, memory_limit=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (mesh, progress=false, memory_limit=None, **settings))]
 pub fn fit(
     py: Python<'_>,
     mesh: MeshArg<'_>,
-    resolution: Option<i64>,
-    dims: Option<Vec<i64>>,
-    target_error: Option<f64>,
-    seed: Option<u64>,
-    max_constraints: Option<i64>,
-    method: Option<String>,
-    max_iterations: Option<i64>,
-    subvoxel: bool,
-    full_resolution: bool,
-    levels: Option<i64>,
-    shell: Option<ShellArg>,
-    solid: bool,
-    max_bytes: Option<i64>,
     progress: bool,
     memory_limit: Option<MemoryArg>,
+    settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<PyModel> {
-    let options = FitArgs {
-        resolution,
-        dims,
-        target_error,
-        seed,
-        max_constraints,
-        method,
-        max_iterations,
-        subvoxel,
-        full_resolution,
-        levels,
-        shell,
-        solid,
-        max_bytes,
-        memory_limit,
-    }
-    .options()?;
+    let options = inputs::fit_options("fit", settings, memory_limit)?;
     let input = mesh.into_input()?;
     let (model, warnings) = py.detach(|| {
         let outputs = FitOutputs::default();

@@ -58,18 +58,25 @@ def test_bad_arrays_are_valueerrors(mesh, message):
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"resolution": 0}, "resolution must be a positive number of voxels, not 0"),
+        ({"resolution": 0}, "grid: 0 voxels along an axis is outside the accepted range"),
         ({"target_error": float("nan")}, "target_error must be a finite number"),
-        ({"method": "magic"}, 'method must be "iterative" or "naive", not "magic"'),
-        ({"max_iterations": 0}, "max_iterations must be a positive count, not 0"),
+        ({"method": "magic"}, 'method takes one of "iterative", "naive", not "magic"'),
+        ({"max_iterations": 0}, "max_iterations must be at least 1, not 0"),
         ({"memory_limit": "lots"}, 'memory size "lots": expected a positive number'),
-        ({"max_constraints": -5}, "max_constraints must be a positive count, not -5"),
-        ({"dims": [10, 10]}, "dims: expected 3 sizes"),
+        ({"max_constraints": -5}, "max_constraints must be a whole number of 0 or more, not -5"),
+        ({"dims": [10, 10]}, r"dims must be three whole numbers of 0 or more, not \[10, 10\]"),
+        ({"seed": True}, "seed must be a whole number of 0 or more, not True"),
+        ({"resolution": 20, "dims": [9, 9, 9]}, "give resolution or dims, not both"),
     ],
 )
 def test_bad_options_are_valueerrors(triceratops, kwargs, message):
     with pytest.raises(ValueError, match=message):
         implicitize.fit(triceratops, **kwargs)
+
+
+def test_a_keyword_that_is_no_setting_is_a_typeerror(triceratops):
+    with pytest.raises(TypeError, match="fit\\(\\) got an unexpected keyword argument 'resolutoin'"):
+        implicitize.fit(triceratops, resolutoin=32)
 
 
 def test_bad_points_and_pictures_are_valueerrors(triceratops):

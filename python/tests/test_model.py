@@ -180,7 +180,7 @@ def test_a_levelled_model_pickles_saves_and_matches_cli_eval(tmp_path, run, leve
 
 def test_fit_takes_levels_and_refuses_a_negative_count(triceratops):
     assert implicitize.DEFAULTS["levels"] >= 1
-    with pytest.raises(ValueError, match="levels must be a count"):
+    with pytest.raises(ValueError, match="levels must be a whole number of 0 or more, not -1"):
         implicitize.fit(triceratops, resolution=32, levels=-1)
     # Below the grid size where levels apply, `levels` changes nothing.
     a = implicitize.fit(triceratops, resolution=32, seed=1, levels=0)

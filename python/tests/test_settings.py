@@ -31,6 +31,21 @@ def test_fit_takes_every_setting_and_nothing_else():
     assert keywords == names()
 
 
+def test_the_docstring_describes_every_setting():
+    doc = implicitize.fit.__doc__
+    for setting in implicitize.FIT_SETTINGS:
+        assert f"``{setting['name']}`` ({setting['unit']}" in doc, setting["name"]
+        assert setting["help"] in doc, setting["name"]
+
+
+def test_the_keywords_take_the_table_s_defaults():
+    parameters = inspect.signature(implicitize.fit).parameters
+    for setting in implicitize.FIT_SETTINGS:
+        parameter = parameters[setting["name"]]
+        assert parameter.kind is inspect.Parameter.KEYWORD_ONLY
+        assert parameter.default is (False if setting["kind"] == "switch" else None), setting
+
+
 def test_the_stub_declares_every_setting():
     stub = Path(implicitize.__file__).with_name("__init__.pyi")
     tree = ast.parse(stub.read_text())

@@ -59,19 +59,47 @@ pub struct FitSettings {
     pub max_bytes: Option<u64>,
 }
 
-/// What a setting is, for the front ends and the docs.
+/// What a setting is, for the front ends and the docs: each front end makes its flag or
+/// keyword from this, and reads a value as its [`Kind`] says into [`FitSettings`] through
+/// serde, by name.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Setting {
     /// Its name: a Python keyword and settings-file key; `--` and the name with `-` for `_`
     /// is its command-line flag.
     pub name: &'static str,
-    /// The unit or kind of its value.
+    /// The values it takes.
+    pub kind: Kind,
+    /// The placeholder of its value in usage lines (`N`, `T`, `VOXELS`); empty for a flag.
+    pub value_name: &'static str,
+    /// The unit or kind of its value, in words.
     pub unit: &'static str,
     /// Its default as text, or `None` where giving nothing means something else (a flag off,
     /// a choice the fit makes).
     pub default: Option<String>,
-    /// One line of help.
-    pub help: &'static str,
+    /// The setting that may not be given with it (`resolution` and `dims`, `shell` and
+    /// `solid`).
+    pub excludes: Option<&'static str>,
+    /// Its help: what it does, in a sentence or two.
+    pub help: String,
+}
+
+/// The values a setting takes, as the front ends parse them before [`FitSettings`] checks
+/// their ranges.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    /// A whole number of 0 or more.
+    Count,
+    /// A number.
+    Number,
+    /// Three whole numbers of 0 or more.
+    Counts3,
+    /// On or off: a flag on the command line, `true` or `false` elsewhere.
+    Switch,
+    /// One of these words.
+    Choice(&'static [&'static str]),
+    /// Text; a number is taken as its text.
+    Text,
 }
 
 impl Setting {
@@ -88,83 +116,227 @@ pub fn fit_settings() -> Vec<Setting> {
     vec![
         Setting {
             name: "resolution",
+            kind: Kind::Count,
+            value_name: "N",
             unit: "voxels",
             default: text(&Resolution::DEFAULT_LONGEST_AXIS),
-            help: "voxels along the mesh's longest axis, margins included",
+            excludes: Some("dims"),
+            help: "Voxels along the mesh's longest axis, margins included (the paper's \
+                   volumes: bunny 220, horse 337, triceratops 320)"
+                .into(),
         },
         Setting {
             name: "dims",
+            kind: Kind::Counts3,
+            value_name: "NX NY NZ",
             unit: "voxels, three",
             default: None,
-            help: "an exact grid size instead of resolution",
+            excludes: Some("resolution"),
+            help: "An exact grid size instead of resolution".into(),
         },
         Setting {
             name: "target_error",
+            kind: Kind::Number,
+            value_name: "VOXELS",
             unit: "voxels",
             default: text(&fit.target_error),
-            help: "stop once the max error E is at most this",
+            excludes: None,
+            help: "Stop once the max error E is at most this many voxels; errors above it are \
+                   corrected however flat the surface is there"
+                .into(),
         },
         Setting {
             name: "seed",
+            kind: Kind::Count,
+            value_name: "SEED",
             unit: "integer",
             default: text(&fit.seed),
-            help: "seed of every random choice (same seed, same model)",
+            excludes: None,
+            help: "Seed of every random choice, such as the initial constraints (same seed, \
+                   same model)"
+                .into(),
         },
         Setting {
             name: "max_constraints",
+            kind: Kind::Count,
+            value_name: "N",
             unit: "count",
             default: text(&MAX_CONSTRAINTS),
-            help: "never more constraints than this (naive: its own default)",
+            excludes: None,
+            help: format!(
+                "Never use more constraints than this (the naive method: {}, half of them mesh \
+                 vertices)",
+                Method::Naive.default_max_constraints()
+            ),
         },
         Setting {
             name: "method",
-            unit: "iterative | naive",
+            kind: Kind::Choice(&["iterative", "naive"]),
+            value_name: "METHOD",
+            unit: "iterative or naive",
             default: text(&"iterative"),
-            help: "how constraints are made: paper 5, or paper 3.2",
+            excludes: None,
+            help: "How the constraints are made: the paper's iterative method (section 5), or \
+                   its simple method (section 3.2), mesh vertices and normal offsets"
+                .into(),
         },
         Setting {
             name: "max_iterations",
+            kind: Kind::Count,
+            value_name: "N",
             unit: "count",
             default: text(&fit.max_iterations),
-            help: "stop after this many iterations",
+            excludes: None,
+            help: "Stop after this many iterations".into(),
         },
         Setting {
             name: "subvoxel",
+            kind: Kind::Switch,
+            value_name: "",
             unit: "flag",
             default: None,
-            help: "measure E from points on the surfaces, not voxel centres",
+            excludes: None,
+            help: "Measure E from points on the surfaces rather than from voxel centres: the \
+                   measure for targets of a voxel or less (a voxel-centre E is never below 0.5 \
+                   and moves in steps)"
+                .into(),
         },
         Setting {
             name: "full_resolution",
+            kind: Kind::Switch,
+            value_name: "",
             unit: "flag",
             default: None,
-            help: "every iteration on the full grid: no start at half the resolution",
+            excludes: None,
+            help: "Run every iteration on the full grid: no start at half the resolution \
+                   (which the fit makes on grids of 128 voxels or more)"
+                .into(),
         },
         Setting {
             name: "levels",
+            kind: Kind::Count,
+            value_name: "N",
             unit: "count",
             default: text(&LevelOptions::default().max_levels),
-            help: "at most this many detail levels on large grids (0: one function)",
+            excludes: None,
+            help: "At most this many detail levels: on grids of 384 voxels or more, level 0 \
+                   is fitted at a quarter of the resolution and levels of compactly supported \
+                   functions are added until E is at most the target; 0 fits one function as \
+                   the paper does"
+                .into(),
         },
         Setting {
             name: "shell",
+            kind: Kind::Text,
+            value_name: "T",
             unit: "voxels, or mesh units with the suffix u",
             default: None,
-            help: "fit the surface thickened to this instead of its solid",
+            excludes: Some("solid"),
+            help: "Fit the mesh's surface thickened to T in all (half on each side) instead of \
+                   its solid, for open shells and walls too thin for the grid: voxels (2) or \
+                   mesh units (0.01u)"
+                .into(),
         },
         Setting {
             name: "solid",
+            kind: Kind::Switch,
+            value_name: "",
             unit: "flag",
             default: None,
-            help: "fit the guessed solid of a mesh open over much of the grid",
+            excludes: Some("shell"),
+            help: "Fit the solid an open mesh's winding numbers guess even where much of the \
+                   grid is a guess (more than a fifth of it near one half), which is refused \
+                   otherwise"
+                .into(),
         },
         Setting {
             name: "max_bytes",
+            kind: Kind::Count,
+            value_name: "N",
             unit: "bytes",
             default: None,
-            help: "the most accurate model whose binary file has at most this many bytes",
+            excludes: None,
+            help: "Make the most accurate model whose binary file has at most N bytes, \
+                   choosing the resolution, target and detail levels; a budget below the \
+                   smallest model is refused, naming its size"
+                .into(),
         },
     ]
+}
+
+/// [`FitSettings`] from values by setting name (JSON: numbers, booleans, text, lists), as a
+/// front end read them by each setting's [`Kind`]; a null is a setting not given.
+///
+/// # Errors
+/// A name that is no setting, or a value of the wrong kind, named (`context` names where the
+/// values came from).
+pub fn from_values(
+    values: serde_json::Map<String, serde_json::Value>,
+    context: &str,
+) -> Result<FitSettings> {
+    let table = fit_settings();
+    for (name, value) in &values {
+        let Some(setting) = table.iter().find(|s| s.name == name) else {
+            return Err(Error::invalid(context, format!("`{name}` is not a fit setting")));
+        };
+        if !value.is_null() && !setting.kind.accepts(value) {
+            return Err(Error::invalid(
+                context,
+                format!("`{name}` takes {}, not {value}", setting.kind.words()),
+            ));
+        }
+    }
+    // Text given as a number (a shell of 2 voxels) is that number's text.
+    let values: serde_json::Map<_, _> = values
+        .into_iter()
+        .filter(|(_, v)| !v.is_null())
+        .map(|(name, v)| match v {
+            serde_json::Value::Number(n) if text_setting(&table, &name) => {
+                (name, serde_json::Value::String(n.to_string()))
+            }
+            v => (name, v),
+        })
+        .collect();
+    serde_json::from_value(serde_json::Value::Object(values))
+        .map_err(|e| Error::invalid(context, format!("not a fit's settings: {e}")))
+}
+
+/// Whether the setting `name` of `table` takes text.
+fn text_setting(table: &[Setting], name: &str) -> bool {
+    table.iter().any(|s| s.name == name && s.kind == Kind::Text)
+}
+
+impl Kind {
+    /// Whether `value` is of this kind (a number for text too: a shell of `2` voxels).
+    fn accepts(self, value: &serde_json::Value) -> bool {
+        use serde_json::Value;
+        match (self, value) {
+            (Kind::Count, Value::Number(n)) => n.is_u64(),
+            (Kind::Number, Value::Number(_)) => true,
+            (Kind::Counts3, Value::Array(items)) => {
+                items.len() == 3 && items.iter().all(|v| v.as_u64().is_some())
+            }
+            (Kind::Switch, Value::Bool(_)) => true,
+            (Kind::Choice(words), Value::String(word)) => words.contains(&word.as_str()),
+            (Kind::Text, Value::String(_) | Value::Number(_)) => true,
+            _ => false,
+        }
+    }
+
+    /// What values of this kind are, in words.
+    pub fn words(self) -> String {
+        match self {
+            Kind::Count => "a whole number of 0 or more".into(),
+            Kind::Number => "a number".into(),
+            Kind::Counts3 => "three whole numbers of 0 or more".into(),
+            Kind::Switch => "true or false".into(),
+            Kind::Choice(words) => {
+                let quoted: Vec<String> = words.iter().map(|w| format!("{w:?}")).collect();
+                format!("one of {}", quoted.join(", "))
+            }
+            Kind::Text => "text or a number".into(),
+        }
+    }
 }
 
 impl FitSettings {

@@ -3,24 +3,15 @@
 
 use std::path::{Path, PathBuf};
 
-use clap::parser::ValueSource;
 use clap::{Args, ValueEnum};
-use implicitize::fit::{ErrorMeasure, FitOptions, IterationReport, LevelOptions};
+use implicitize::fit::{ErrorMeasure, FitOptions, IterationReport};
 use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
 use implicitize::settings::{FitSettings, fit_settings};
 use implicitize::{Implicit, ModelFormat, mesh, output};
 
-use super::common::{GridArgs, Progress, memory_limit, read_mesh, warn};
+use super::common::{Progress, memory_limit, read_mesh, warn};
 use super::render::{Snapshots, compare_picture};
-
-/// How the constraints are made.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Method {
-    /// The paper's iterative method (section 5).
-    Iterative,
-    /// The paper's simple method (section 3.2): mesh vertices and normal offsets.
-    Naive,
-}
+use super::settings::{SettingsArgs, own_default};
 
 /// The formats of a model file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -50,8 +41,8 @@ fn max_constraints_help() -> String {
     )
 }
 
-/// The iterative fit's own settings, shared by `fit`, `demo`, `batch` and `fit2d`; each
-/// default is the library's.
+/// The iterative fit's own settings in `fit2d`; each default is the library's. (The fit of a
+/// mesh takes its settings from the library's table: [`SettingsArgs`].)
 #[derive(Debug, Args)]
 pub struct LoopArgs {
     /// Seed of the random choice of initial constraints (same seed, same model).
@@ -85,119 +76,42 @@ impl LoopArgs {
     }
 }
 
-/// The options of the fit itself, shared by `fit`, `demo` and `batch`.
+/// The options of the fit itself, shared by `fit`, `demo` and `batch`: every setting of the
+/// library's table as a flag ([`SettingsArgs`]), and a settings file.
 #[derive(Debug, Args)]
 pub struct FitArgs {
     #[command(flatten)]
-    pub grid: GridArgs,
-    #[command(flatten)]
-    pub settings: LoopArgs,
-    /// How the constraints are made.
-    #[arg(long, value_enum, default_value_t = Method::Iterative)]
-    pub method: Method,
-    /// Run every iteration on the full grid: no start at half the resolution (which the fit
-    /// makes on grids of 128 voxels or more along their longest axis).
-    #[arg(long)]
-    pub full_resolution: bool,
-    /// At most this many detail levels: on a grid of 384 voxels or more along its longest axis, level 0 is fitted at a quarter of the resolution and
-    /// levels of compactly supported functions, each half the support of the one before, are
-    /// added on the full grid until E is at most the target; 0 fits one function as the paper
-    /// does
-    #[arg(long, default_value_t = LevelOptions::default().max_levels)]
-    pub levels: usize,
-    /// Fit the mesh's surface thickened to T in all (half on each side) instead of its solid:
-    /// for open shells (car bodies, single-sheet scans) and walls too thin for the grid. T in
-    /// voxels (as 2) or in mesh units with the suffix u (as 0.01u)
-    #[arg(long, value_name = "T")]
-    pub shell: Option<String>,
-    /// Fit the solid an open mesh's winding numbers guess even where much of the grid is a
-    /// guess (more than a fifth of it near one half), which is refused otherwise
-    #[arg(long, conflicts_with = "shell")]
-    pub solid: bool,
-    /// Write the most accurate model whose binary file has at most N bytes: fits at the
-    /// default resolution, then at smaller or larger ones and with detail levels, and keeps
-    /// the nearest to the mesh within N (the report's byte_budget lists them); --resolution
-    /// and --target-error are then the search's. A budget below the smallest model is refused,
-    /// naming its size
-    #[arg(long, value_name = "N")]
-    pub max_bytes: Option<u64>,
+    pub settings: SettingsArgs,
     /// Read the fit's settings from FILE (TOML, or JSON for a name ending in .json; the keys
     /// are these flags' names with _ for -, as Python's keywords): the flags given on the
     /// command line override the file's
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// The settings given on the command line (see [`FitArgs::note_given`]).
-    #[arg(skip)]
-    pub given: Vec<String>,
 }
 
 impl FitArgs {
-    /// These flags as the library's settings, by the names every front end shares.
-    pub fn settings(&self) -> FitSettings {
-        let mut settings = FitSettings::default();
-        match self.grid.dims.as_deref() {
-            Some(&[nx, ny, nz]) => settings.dims = Some([nx, ny, nz]),
-            _ => settings.resolution = Some(self.grid.resolution),
-        }
-        let fit = &self.settings;
-        settings.seed = Some(fit.seed);
-        settings.max_iterations = Some(fit.max_iterations);
-        settings.target_error = Some(f64::from(fit.target_error));
-        settings.subvoxel = fit.subvoxel;
-        settings.max_constraints = fit.max_constraints;
-        settings.method = Some(
-            match self.method {
-                Method::Iterative => "iterative",
-                Method::Naive => "naive",
-            }
-            .to_string(),
-        );
-        settings.full_resolution = self.full_resolution;
-        settings.levels = Some(self.levels);
-        settings.shell = self.shell.clone();
-        settings.solid = self.solid;
-        settings.max_bytes = self.max_bytes;
-        settings
-    }
-
-    /// Records which settings the command line gave (`matches` are the subcommand's), so
-    /// that those override a settings file's.
-    pub fn note_given(&mut self, matches: &clap::ArgMatches) {
-        self.given = fit_settings()
-            .into_iter()
-            .map(|setting| setting.name.to_string())
-            .filter(|name| matches.value_source(name) == Some(ValueSource::CommandLine))
-            .collect();
-    }
-
     /// The flags' settings with `--config`'s file over those the command line did not give:
-    /// a value the file sets replaces the flag's default (the library's, or the demo's own),
-    /// a flag given on the command line wins over the file. Of two settings that exclude each
-    /// other (`resolution` and `dims`, `shell` and `solid`), the one the file sets clears the
-    /// other unless the command line gave it.
+    /// a value the file sets replaces a default of the command's own, a flag given on the
+    /// command line wins over the file. Of two settings that exclude each other (`resolution`
+    /// and `dims`, `shell` and `solid`), the one the file sets clears the other unless the
+    /// command line gave it.
     ///
     /// # Errors
     /// A settings file that cannot be read, holds an unknown key or a value out of range.
     pub fn merged_settings(&self) -> implicitize::Result<FitSettings> {
-        let flags = self.settings();
-        let Some(path) = &self.config else { return Ok(flags) };
+        let SettingsArgs { settings: flags, given } = &self.settings;
+        let Some(path) = &self.config else { return Ok(flags.clone()) };
         let file = serde_json::to_value(FitSettings::read(path)?).expect("settings serialize");
         let mut merged = serde_json::to_value(flags).expect("settings serialize");
         let unset = serde_json::to_value(FitSettings::default()).expect("settings serialize");
-        let given = |name: &str| self.given.iter().any(|g| g == name);
-        for (name, value) in file.as_object().expect("settings are a map") {
+        let given = |name: &str| given.iter().any(|g| g == name);
+        for setting in fit_settings() {
+            let (name, value) = (setting.name, &file[setting.name]);
             let set = !(value.is_null() || value == &serde_json::Value::Bool(false));
             if !set || given(name) {
                 continue;
             }
-            let other = match name.as_str() {
-                "resolution" => Some("dims"),
-                "dims" => Some("resolution"),
-                "shell" => Some("solid"),
-                "solid" => Some("shell"),
-                _ => None,
-            };
-            if let Some(other) = other {
+            if let Some(other) = setting.excludes {
                 if given(other) {
                     continue;
                 }
@@ -309,8 +223,8 @@ const DEMO_TARGET_ERROR: &str = "1";
 /// Arguments of `implicitize demo`.
 #[derive(Debug, Args)]
 #[command(
-    mut_arg("resolution", |a| a.default_value(DEMO_RESOLUTION)),
-    mut_arg("target_error", |a| a.default_value(DEMO_TARGET_ERROR))
+    mut_arg("resolution", |a| own_default(a, "resolution", DEMO_RESOLUTION)),
+    mut_arg("target_error", |a| own_default(a, "target_error", DEMO_TARGET_ERROR))
 )]
 pub struct DemoCommand {
     /// The folder to write into.

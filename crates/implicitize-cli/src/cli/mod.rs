@@ -21,6 +21,7 @@ mod morph;
 mod polygonize;
 mod render;
 mod sample;
+mod settings;
 mod solve;
 mod view;
 mod volume;
@@ -81,11 +82,10 @@ enum Command {
 /// Parses the command line and runs it.
 pub fn run() -> ExitCode {
     let matches = Cli::command().get_matches();
-    let mut cli = match Cli::from_arg_matches(&matches) {
+    let cli = match Cli::from_arg_matches(&matches) {
         Ok(cli) => cli,
         Err(e) => e.exit(),
     };
-    note_given(&mut cli.command, &matches);
     let progress = common::Progress::new(cli.quiet);
     common::set_memory_limit(cli.memory_limit);
     let result = check_isa().and_then(|()| dispatch(&cli.command, progress));
@@ -96,18 +96,6 @@ pub fn run() -> ExitCode {
             eprintln!("error: {message}");
             ExitCode::FAILURE
         }
-    }
-}
-
-/// Records the fit settings given on the command line of the commands that fit, so that they
-/// override a `--config` file's.
-fn note_given(command: &mut Command, matches: &clap::ArgMatches) {
-    let Some((_, sub)) = matches.subcommand() else { return };
-    match command {
-        Command::Demo(args) => args.fit.note_given(sub),
-        Command::Fit(args) => args.fit.note_given(sub),
-        Command::Batch(args) => args.fit.note_given(sub),
-        _ => {}
     }
 }
 
