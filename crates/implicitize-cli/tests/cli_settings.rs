@@ -113,20 +113,3 @@ fn a_settings_file_is_read_under_the_flags_given() {
         "{stderr}"
     );
 }
-
-/// The docs name every setting: its flag in the command line's, its keyword in Python's.
-#[test]
-fn the_docs_name_every_setting() {
-    let docs = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs");
-    let cli = std::fs::read_to_string(docs.join("cli.md")).unwrap();
-    let python = std::fs::read_to_string(docs.join("python.md")).unwrap();
-    for setting in fit_settings() {
-        let flag = setting.flag();
-        assert!(cli.contains(&format!("`{flag}")), "docs/cli.md does not name {flag}");
-        assert!(
-            python.contains(&format!("`{}", setting.name)),
-            "docs/python.md does not name {}",
-            setting.name
-        );
-    }
-}
