@@ -121,6 +121,10 @@ fn a_settings_file_is_read_and_an_unknown_key_named() {
     let error = FitSettings::read(&range).unwrap_err().to_string();
     assert!(error.starts_with(&range.display().to_string()), "{error}");
     assert!(error.contains("\"max_iterations\"") && !error.contains("options"), "{error}");
+    // A shell in voxels may be a number, as Python's `shell=2`.
+    let shell = dir.path().join("shell.toml");
+    std::fs::write(&shell, "shell = 2\n").unwrap();
+    assert_eq!(FitSettings::read(&shell).unwrap().shell.as_deref(), Some("2"));
     let missing = FitSettings::read(&dir.path().join("none.toml")).unwrap_err().to_string();
     assert!(missing.contains("none.toml"), "{missing}");
 }

@@ -51,7 +51,9 @@ pub struct FitSettings {
     pub full_resolution: bool,
     /// At most this many detail levels.
     pub levels: Option<usize>,
-    /// Fit the surface thickened to this: voxels (`2`), or mesh units (`0.01u`).
+    /// Fit the surface thickened to this: voxels (`2`), or mesh units (`0.01u`); a number
+    /// read is taken as its text.
+    #[serde(deserialize_with = "text_or_number")]
     pub shell: Option<String>,
     /// Fit the guessed solid of a mesh open over much of the grid.
     pub solid: bool,
@@ -286,24 +288,27 @@ pub fn from_values(
             ));
         }
     }
-    // Text given as a number (a shell of 2 voxels) is that number's text.
-    let values: serde_json::Map<_, _> = values
-        .into_iter()
-        .filter(|(_, v)| !v.is_null())
-        .map(|(name, v)| match v {
-            serde_json::Value::Number(n) if text_setting(&table, &name) => {
-                (name, serde_json::Value::String(n.to_string()))
-            }
-            v => (name, v),
-        })
-        .collect();
+    let values: serde_json::Map<_, _> = values.into_iter().filter(|(_, v)| !v.is_null()).collect();
     serde_json::from_value(serde_json::Value::Object(values))
         .map_err(|e| Error::invalid(context, format!("not a fit's settings: {e}")))
 }
 
-/// Whether the setting `name` of `table` takes text.
-fn text_setting(table: &[Setting], name: &str) -> bool {
-    table.iter().any(|s| s.name == name && s.kind == Kind::Text)
+/// A setting of text, given as text or as a number (a shell of `2` voxels: `"2"`).
+fn text_or_number<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<String>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Given {
+        Text(String),
+        Whole(i64),
+        Number(f64),
+    }
+    Ok(Option::<Given>::deserialize(d)?.map(|given| match given {
+        Given::Text(text) => text,
+        Given::Whole(n) => n.to_string(),
+        Given::Number(x) => x.to_string(),
+    }))
 }
 
 impl Kind {
