@@ -363,7 +363,7 @@ pub fn largest_fitting(
 }
 
 /// A size in bytes, KB, MB, GB or TB (powers of 1024), with one decimal.
-pub fn show_size(bytes: u64) -> String {
+pub(crate) fn show_size(bytes: u64) -> String {
     let units = ["bytes", "KB", "MB", "GB", "TB"];
     let mut value = bytes as f64;
     let mut unit = 0;

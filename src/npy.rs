@@ -54,7 +54,7 @@ pub fn to_bytes<T: npyz::AutoSerialize>(
 ///
 /// # Errors
 /// The file cannot be written, or it would pass 4 GB.
-pub fn write_npz(path: &Path, arrays: &[(&str, Vec<u8>)]) -> Result<()> {
+pub(crate) fn write_npz(path: &Path, arrays: &[(&str, Vec<u8>)]) -> Result<()> {
     let too_large = || {
         Error::invalid(
             path.display().to_string(),
@@ -161,7 +161,7 @@ pub(crate) const MAX_HEADER: usize = 10_000;
 pub(crate) const MAX_HEADER_NESTING: usize = 2;
 
 /// Reads the bytes of a `.npy` file as [`read_rows`]; `path` names the file in messages.
-pub fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
+pub(crate) fn read_rows_bytes(bytes: &[u8], path: &Path) -> Result<(Vec<f64>, usize)> {
     check_header(bytes, path)?;
     let npy = npyz::NpyFile::new(bytes)
         .map_err(|e| Error::parse(path, None, format!("not a NumPy .npy file: {e}")))?;

@@ -1,7 +1,9 @@
-//! The library's public modules and constants, listed: a module or constant made public, or
-//! made private, is a deliberate change of the API and changes these lists. Internals (the
-//! fit's surface disks, the solver's and evaluator's parts in `rbf`, the fit's tuning values)
-//! and the paper's figures (drawn by the command) are not public.
+//! The library's public modules, constants and items, listed: a module, constant or item made
+//! public, or made private, is a deliberate change of the API and changes these lists (the
+//! items' list is tests/data/public-items.txt, which `IMPLICITIZE_BLESS=1 cargo test --test
+//! public_api` writes). Internals (the fit's surface disks, the solver's and evaluator's parts
+//! in `rbf`, the fit's tuning values) and the paper's figures (drawn by the command) are not
+//! public.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -116,4 +118,65 @@ fn the_public_constants_are_the_listed_ones() {
     }
     found.sort();
     assert_eq!(found, PUBLIC_CONSTANTS);
+}
+
+/// Every top-level public item of the crate's public modules and its root (functions, types,
+/// traits, constants and statics by `module::name`; re-exports by `module::use path`), one a
+/// line in tests/data/public-items.txt: an item made public, or private, is a decision that
+/// changes that file. `IMPLICITIZE_BLESS=1 cargo test --test public_api` writes it; the test
+/// fails while it differs.
+#[test]
+fn the_public_items_are_the_listed_ones() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let src = root.join("src");
+    let mut modules = Vec::new();
+    public_modules(&src.join("lib.rs"), &src, "", &mut modules);
+    let mut items = items_of(&src.join("lib.rs"), "");
+    for module in &modules {
+        let relative: PathBuf = module.split("::").collect();
+        let flat = src.join(&relative).with_extension("rs");
+        let file = if flat.is_file() { flat } else { src.join(&relative).join("mod.rs") };
+        items.extend(items_of(&file, module));
+    }
+    items.sort();
+    let listed = root.join("tests/data/public-items.txt");
+    let text = items.iter().map(|item| format!("{item}\n")).collect::<String>();
+    if std::env::var_os("IMPLICITIZE_BLESS").is_some() {
+        fs::write(&listed, &text).unwrap();
+    }
+    let want = fs::read_to_string(&listed).unwrap_or_default();
+    assert!(
+        want == text,
+        "the public items are not those of {} ({} now): IMPLICITIZE_BLESS=1 cargo test --test \
+         public_api writes them",
+        listed.display(),
+        items.len()
+    );
+}
+
+/// The top-level public items of `file` (module `module`), as the test above lists them.
+fn items_of(file: &Path, module: &str) -> Vec<String> {
+    let source = fs::read_to_string(file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
+    let prefix = if module.is_empty() { String::new() } else { format!("{module}::") };
+    let mut items = Vec::new();
+    let mut lines = source.lines();
+    while let Some(line) = lines.next() {
+        if let Some(rest) = line.strip_prefix("pub use ") {
+            let mut path = rest.to_string();
+            while !path.ends_with(';') {
+                let Some(next) = lines.next() else { break };
+                path.push(' ');
+                path.push_str(next.trim());
+            }
+            let path = path.trim_end_matches(';').split_whitespace().collect::<Vec<_>>().join(" ");
+            items.push(format!("{prefix}use {path}"));
+            continue;
+        }
+        let kinds = ["fn ", "struct ", "enum ", "trait ", "type ", "const ", "static "];
+        let Some(rest) = line.strip_prefix("pub ") else { continue };
+        let Some(rest) = kinds.iter().find_map(|k| rest.strip_prefix(k)) else { continue };
+        let name: String = rest.chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+        items.push(format!("{prefix}{name}"));
+    }
+    items
 }

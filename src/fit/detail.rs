@@ -83,13 +83,13 @@ pub struct LevelOptions {
     pub first_radius: f64,
     /// No level whose support radius would be below this, in voxels of the full grid.
     pub min_radius: f64,
-    /// On a grid below `min_axis` whose fit could go on with levels ([`after_stall`]), the
+    /// On a grid below `min_axis` whose fit could go on with levels (`after_stall`), the
     /// paper's loop stops at this many constraints above its target and the fit goes on with
     /// levels, unless a constraint limit is set (`FitOptions::max_constraints`): the paper's
     /// models reach their target with fewer than 800, and a loop past this many needs thousands
     /// of them, each iteration a pass over the whole grid.
     pub loop_constraints: usize,
-    /// On a grid below `min_axis` whose fit could go on with levels ([`after_stall`]), a fit of
+    /// On a grid below `min_axis` whose fit could go on with levels (`after_stall`), a fit of
     /// the paper's loop that met its target is fitted again with levels when the points on the
     /// mesh where the goal agrees with it lie farther than the target plus this many voxels
     /// from its zero set at the 99.9th percentile ([`mesh_distance`]): sharp corners and thin
@@ -140,7 +140,7 @@ pub fn applies(grid: &Grid, options: &FitOptions) -> bool {
 /// Whether a fit of the paper's loop that ended with `report` stalled above its target (no
 /// improvement, no candidate, or [`LevelOptions::loop_constraints`] reached: see
 /// [`loop_limit`]) on a grid where detail levels could go on: levels on, and a pyramid below
-/// the grid (see [`after_stall`]).
+/// the grid (see `after_stall`).
 pub fn stalled(report: &FitReport, grid: &Grid, options: &FitOptions) -> bool {
     let stalled = matches!(
         report.termination,
@@ -155,7 +155,7 @@ pub fn stalled(report: &FitReport, grid: &Grid, options: &FitOptions) -> bool {
 
 /// The constraints at which the paper's loop on `grid` hands over to detail levels
 /// ([`LevelOptions::loop_constraints`]), where it does: no constraint limit set, levels could
-/// go on ([`after_stall`]), and fewer constraints than `allowed` (the most whose solve fits in
+/// go on (`after_stall`), and fewer constraints than `allowed` (the most whose solve fits in
 /// memory).
 pub fn loop_limit(grid: &Grid, options: &FitOptions, allowed: usize) -> Option<usize> {
     let limit = options.levels.loop_constraints;
@@ -166,8 +166,8 @@ pub fn loop_limit(grid: &Grid, options: &FitOptions, allowed: usize) -> Option<u
 /// Whether a fit of the paper's loop on `grid` that ended with `report` and met its target
 /// could be checked against the mesh's points and go on with levels where it is farther from
 /// them than the target allows ([`LevelOptions::mesh_slack`]): levels could go on
-/// ([`after_stall`]) and the grid has none of its own.
-pub fn checks_mesh(report: &FitReport, grid: &Grid, options: &FitOptions) -> bool {
+/// (`after_stall`) and the grid has none of its own.
+pub(crate) fn checks_mesh(report: &FitReport, grid: &Grid, options: &FitOptions) -> bool {
     let met = report.error_by(options.error_measure) <= options.target_error;
     met && !applies(grid, options) && applies(grid, &after_stall(options))
 }
@@ -206,7 +206,7 @@ const NEAR: f64 = 0.5;
 /// [`stalled`] on a grid below [`LevelOptions::min_axis`]: levels from any grid with a pyramid,
 /// and a level 0 of at most [`LevelOptions::loop_constraints`] constraints (the levels go on
 /// from there, where the loop would need thousands).
-pub fn after_stall(options: &FitOptions) -> FitOptions {
+pub(crate) fn after_stall(options: &FitOptions) -> FitOptions {
     let mut options = options.clone();
     options.levels.min_axis = 0;
     options.max_constraints = Some(options.constraint_limit().min(options.levels.loop_constraints));

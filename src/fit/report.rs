@@ -340,7 +340,7 @@ pub struct FitReport {
     pub target: Option<TargetOutcome>,
     /// For a fit of the paper's loop on a grid without detail levels that was fitted again with
     /// them and replaced (it stalled above its target, [`super::detail::stalled`], or left the
-    /// mesh's points farther than the target allows, [`super::detail::checks_mesh`]): how that
+    /// mesh's points farther than the target allows, `fit::detail::checks_mesh`): how that
     /// first fit ended; absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub paper_loop: Option<PaperLoop>,

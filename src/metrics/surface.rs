@@ -266,7 +266,7 @@ pub fn sample(mesh: &Mesh, n: usize, seed: u64) -> Option<Vec<DVec3>> {
 
 /// [`sample`]'s points (the same draws), each with its triangle's unit normal by the
 /// right-hand rule of its corners (zero for a triangle without a normal).
-pub fn sample_with_normals(mesh: &Mesh, n: usize, seed: u64) -> Option<Vec<(DVec3, DVec3)>> {
+pub(crate) fn sample_with_normals(mesh: &Mesh, n: usize, seed: u64) -> Option<Vec<(DVec3, DVec3)>> {
     let surface = ByArea::of(mesh)?;
     let blocks = n.div_ceil(BLOCK);
     let points = (0..blocks).into_par_iter().flat_map_iter(|block| {

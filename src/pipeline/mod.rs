@@ -1314,7 +1314,7 @@ pub fn warnings(
 }
 
 /// What a fit's outcome warns of, one line each (no file name): a target not met
-/// ([`above_target`]), faces inside the mesh's own solid ([`interior_surface`]). The warnings
+/// ([`above_target`]), faces inside the mesh's own solid (`interior_surface`). The warnings
 /// known before the fit are [`Prepared::warnings`]; [`Fitted::warnings`] gives both.
 pub fn outcome_warnings(report: &FitReport) -> Vec<String> {
     above_target(report).into_iter().chain(interior_surface(report)).collect()
@@ -1382,7 +1382,7 @@ fn loop_stop(report: &FitReport) -> String {
 /// `INTERIOR_NOTABLE` of the mesh's surface lies inside its own solid
 /// ([`metrics::surface::interior`]): faces no solid's surface holds, which the model leaves
 /// out; with how close the rest of the mesh is to the model.
-pub fn interior_surface(report: &FitReport) -> Option<String> {
+pub(crate) fn interior_surface(report: &FitReport) -> Option<String> {
     let d = report.mesh_distance?;
     let rest = d.bounding_to_model?;
     let solid = d.solid_to_model.map(|solid| {

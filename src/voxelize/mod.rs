@@ -240,7 +240,7 @@ pub fn voxelize(mesh: &Mesh, grid: &Grid, options: &VoxelizeOptions) -> Result<V
 ///
 /// # Errors
 /// As [`voxelize`]'s.
-pub fn ambiguity_of(mesh: &Mesh, grid: &Grid) -> Result<Ambiguity> {
+pub(crate) fn ambiguity_of(mesh: &Mesh, grid: &Grid) -> Result<Ambiguity> {
     check(mesh, grid, &VoxelizeOptions::default())?;
     let (oriented, triangles) = oriented_on(mesh, grid)?;
     if oriented.closed {
