@@ -1,7 +1,7 @@
 //! Output files that are never half-written.
 //!
 //! Every file the library and the `implicitize` command write (models, reports, volumes and
-//! their grid files, meshes, pictures) goes through `write_with` or [`write_bytes`]: the
+//! their grid files, meshes, pictures) goes through [`write_with`] or [`write_bytes`]: the
 //! contents are written to a temporary file in the same folder, flushed to the disk
 //! (`fsync`), and only then renamed over the destination. A rename within one folder is
 //! atomic, so a process killed at any moment leaves the destination either as it was before
@@ -87,7 +87,7 @@ fn folder_of(destination: &Path) -> &Path {
 /// # Errors
 /// An error naming `path` when the temporary file cannot be created, written, synced or
 /// renamed, or the error `write` returned; `path` is then left as it was.
-pub(crate) fn write_with<F>(path: &Path, write: F) -> Result<()>
+pub fn write_with<F>(path: &Path, write: F) -> Result<()>
 where
     F: FnOnce(&mut BufWriter<File>) -> Result<()>,
 {
@@ -104,10 +104,10 @@ where
     Ok(())
 }
 
-/// Writes `bytes` to `path` atomically, as `write_with`.
+/// Writes `bytes` to `path` atomically, as [`write_with`].
 ///
 /// # Errors
-/// As `write_with`.
+/// As [`write_with`].
 pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
     write_with(path, |out| out.write_all(bytes).map_err(|e| Error::io(path, e)))
 }
