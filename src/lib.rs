@@ -123,6 +123,12 @@ pub mod shader;
 pub mod shape;
 pub mod voxelize;
 
+// The stages' tests name the crate as its users do.
+#[cfg(test)]
+extern crate self as implicitize;
+#[cfg(test)]
+mod tests;
+
 pub use error::{Error, Result};
 pub use field::Field;
 pub use geometry::{Aabb, DVec3};

@@ -121,7 +121,8 @@ fn the_public_constants_are_the_listed_ones() {
 }
 
 /// Every top-level public item of the crate's public modules and its root (functions, types,
-/// traits, constants and statics by `module::name`; re-exports by `module::use path`), one a
+/// traits, constants and statics by `module::name`; each name a re-export brings in as
+/// `module::name = path`, so that a re-exported item counts where it can be named), one a
 /// line in tests/data/public-items.txt: an item made public, or private, is a decision that
 /// changes that file. `IMPLICITIZE_BLESS=1 cargo test --test public_api` writes it; the test
 /// fails while it differs.
@@ -169,7 +170,9 @@ fn items_of(file: &Path, module: &str) -> Vec<String> {
                 path.push_str(next.trim());
             }
             let path = path.trim_end_matches(';').split_whitespace().collect::<Vec<_>>().join(" ");
-            items.push(format!("{prefix}use {path}"));
+            for (name, source) in reexported(&path) {
+                items.push(format!("{prefix}{name} = {source}"));
+            }
             continue;
         }
         let kinds = ["fn ", "struct ", "enum ", "trait ", "type ", "const ", "static "];
@@ -179,4 +182,38 @@ fn items_of(file: &Path, module: &str) -> Vec<String> {
         items.push(format!("{prefix}{name}"));
     }
     items
+}
+
+/// The names a `pub use` path brings in (`a::{B, c::D as E}` gives `B` and `E`), each with the
+/// path it names.
+fn reexported(path: &str) -> Vec<(String, String)> {
+    let Some(open) = path.find('{') else {
+        let (source, name) = match path.split_once(" as ") {
+            Some((source, alias)) => (source.trim(), alias.trim()),
+            None => (path.trim(), path.rsplit("::").next().unwrap_or(path).trim()),
+        };
+        return vec![(name.to_string(), source.to_string())];
+    };
+    let prefix = &path[..open];
+    let inner = &path[open + 1..path.rfind('}').expect("a closing brace")];
+    let mut parts = Vec::new();
+    let (mut depth, mut start) = (0, 0);
+    for (i, c) in inner.char_indices() {
+        match c {
+            '{' => depth += 1,
+            '}' => depth -= 1,
+            ',' if depth == 0 => {
+                parts.push(&inner[start..i]);
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    parts.push(&inner[start..]);
+    parts
+        .into_iter()
+        .map(str::trim)
+        .filter(|part| !part.is_empty())
+        .flat_map(|part| reexported(&format!("{prefix}{part}")))
+        .collect()
 }

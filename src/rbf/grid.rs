@@ -521,7 +521,7 @@ mod tests {
 
     /// From the sparser lattice, every voxel still gets the sign a full evaluation gives it,
     /// and the 8th-voxel lattice its exact value, on grids whose last voxel is on and off the
-    /// lattices, with and without a goal. The grids are twice the size of `tests/rbf.rs`'s for
+    /// lattices, with and without a goal. The grids are twice the size of `src/tests/rbf.rs`'s for
     /// the lattice of every 4th voxel, so that the fields' features span as many cells.
     #[test]
     fn the_sparser_lattice_finds_every_sign() {

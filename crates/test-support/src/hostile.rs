@@ -5,7 +5,7 @@
 
 use implicitize::{DVec3, Mesh};
 
-use crate::meshes::merge;
+use super::meshes::merge;
 
 /// A sphere of `radius` around `centre` on a latitude-longitude grid of `rings` bands and
 /// `segments` sectors (`2 * segments * (rings - 1)` triangles), its radius displaced by

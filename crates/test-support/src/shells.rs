@@ -5,7 +5,7 @@
 
 use implicitize::{DVec3, Mesh};
 
-use crate::meshes::merge;
+use super::meshes::merge;
 
 /// The direction of latitude `theta` (from +z) and longitude `phi`.
 fn direction(theta: f64, phi: f64) -> DVec3 {
@@ -107,7 +107,7 @@ pub fn open_hemisphere(radius: f64, rings: usize, segments: usize) -> Mesh {
 /// Two unit squares parallel to the xy plane, `gap` apart along z, each `n` x `n` quads: two
 /// open sheets, no solid between them.
 pub fn parallel_sheets(n: usize, gap: f64) -> Mesh {
-    let lower = crate::hostile::sheet(n, 0.0);
+    let lower = super::hostile::sheet(n, 0.0);
     let mut upper = lower.clone();
     upper.vertices.iter_mut().for_each(|v| v.z += gap);
     merge(&lower, &upper)

@@ -9,8 +9,8 @@ use std::sync::LazyLock;
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::voxelize::shell::Shell;
 use implicitize::{DVec3, Field, MeshFitOptions, Model, Resolution, pipeline};
-use implicitize_test_support::data::triceratops;
-use implicitize_test_support::shells::open_hemisphere;
+use crate::tests::support::data::triceratops;
+use crate::tests::support::shells::open_hemisphere;
 use proptest::prelude::*;
 
 /// Valid binary files: a thin-plate model on its lattice, a model with detail levels (a

@@ -12,8 +12,8 @@ use implicitize::rbf::MultiScale;
 use implicitize::shader::{self, Language};
 use implicitize::shape::Shape;
 use implicitize::{Field, Mesh, Model, Resolution, polygonize};
-use implicitize_test_support::meshes::{max_vertex_distance, torus};
-use implicitize_test_support::points::random_points;
+use crate::tests::support::meshes::{max_vertex_distance, torus};
+use crate::tests::support::points::random_points;
 
 /// The target, in voxels of the 128 grid.
 const TARGET: f32 = 1.0;
@@ -239,7 +239,7 @@ fn the_binary_file_stores_the_lattices_compactly_and_exactly() {
 fn shaders_read_levels_and_the_variational_morph_refuses_them() {
     let model = &fitted().model;
     let wgsl = shader::source(model, "torus.json", Language::Wgsl).unwrap();
-    implicitize_test_support::wgsl::validate(&wgsl);
+    crate::tests::support::wgsl::validate(&wgsl);
     let glsl = shader::source(model, "torus.json", Language::Glsl).unwrap();
     for k in 0..levels().levels().len() {
         for source in [&wgsl, &glsl] {
@@ -283,7 +283,7 @@ fn level_0_fits_at_a_quarter_of_the_resolution() {
 /// with levels is nearer the goal than the loop left it. Without levels nothing is tried again.
 #[test]
 fn a_fit_that_stalls_goes_on_with_detail_levels() {
-    let (mesh, _) = implicitize::mesh::read(implicitize_test_support::data::triceratops()).unwrap();
+    let (mesh, _) = implicitize::mesh::read(crate::tests::support::data::triceratops()).unwrap();
     let mut options = MeshFitOptions::default();
     options.resolution = Resolution::LongestAxis(128);
     options.fit.patience = 3;
@@ -310,7 +310,7 @@ fn a_fit_that_stalls_goes_on_with_detail_levels() {
 /// sets is the loop's own: the loop stops at it, and nothing is tried again.
 #[test]
 fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
-    let (mesh, _) = implicitize::mesh::read(implicitize_test_support::data::triceratops()).unwrap();
+    let (mesh, _) = implicitize::mesh::read(crate::tests::support::data::triceratops()).unwrap();
     let mut options = MeshFitOptions::default();
     options.resolution = Resolution::LongestAxis(128);
     options.fit.target_error = 1.0;
@@ -324,7 +324,7 @@ fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
     // The batch manifest says it: the paper's loop, then level 0, then the levels.
     let dir = tempfile::tempdir().unwrap();
     let job = batch::Job {
-        input: implicitize_test_support::data::triceratops().into(),
+        input: crate::tests::support::data::triceratops().into(),
         name: "triceratops".into(),
     };
     let mut batch_options = BatchOptions::default();

@@ -9,8 +9,8 @@ use implicitize::rbf::{Constraint, Implicit, Kernel};
 use implicitize::shader::{Language, source, texture_source};
 use implicitize::shape::Shape;
 use implicitize::{Aabb, DVec3};
-use implicitize_test_support::models::{ball, disc_2d, sphere_directions};
-use implicitize_test_support::wgsl;
+use crate::tests::support::models::{ball, disc_2d, sphere_directions};
+use crate::tests::support::wgsl;
 
 /// A unit ball at `center` solved with `kernel`.
 fn ball_with(kernel: Kernel, center: DVec3) -> Model {

@@ -7,8 +7,8 @@ use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions, Similarity};
 use implicitize::rbf::{Constraint, Implicit, Kernel};
 use implicitize::{Aabb, DVec3, Field, Grid, Mesh, MeshFitOptions, Resolution, polygonize};
-use implicitize_test_support::meshes::{sphere, torus};
-use implicitize_test_support::topology;
+use crate::tests::support::meshes::{sphere, torus};
+use crate::tests::support::topology;
 
 /// Fits `mesh` at a small resolution.
 fn fitted(mesh: &Mesh) -> Model {

@@ -10,8 +10,8 @@ use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, MeshFitOptions, MeshSource, Prepared};
 use implicitize::voxelize::shell::Shell;
 use implicitize::{DVec3, Error, Mesh, Resolution};
-use implicitize_test_support::meshes::sphere;
-use implicitize_test_support::shells::{hollow_ball, open_hemisphere, parallel_sheets};
+use crate::tests::support::meshes::sphere;
+use crate::tests::support::shells::{hollow_ball, open_hemisphere, parallel_sheets};
 
 /// The grid of the tests: small, so that each fit takes a second or two.
 const RESOLUTION: usize = 48;
@@ -231,7 +231,7 @@ fn shells_fit_within_their_target_both_ways() {
 /// the same mesh is not warned about its walls.
 #[test]
 fn thin_walls_that_are_fitted_are_warned_about() {
-    let (mesh, _) = implicitize::mesh::read(implicitize_test_support::data::triceratops()).unwrap();
+    let (mesh, _) = implicitize::mesh::read(crate::tests::support::data::triceratops()).unwrap();
     let mut fast = options();
     fast.fit.max_iterations = 2;
     let fitted = pipeline::fit_mesh(&mesh, &fast).unwrap();

@@ -232,7 +232,7 @@ fn format_follows_the_extension_without_regard_to_case() {
 
 #[test]
 fn the_built_in_triceratops_reads_closed() {
-    let (m, report) = mesh::read(implicitize_test_support::data::triceratops()).unwrap();
+    let (m, report) = mesh::read(crate::tests::support::data::triceratops()).unwrap();
     assert_eq!(m.triangles.len(), 5660);
     assert_eq!(m.vertices.len(), 2832);
     assert_eq!(report.degenerate_dropped, 0);

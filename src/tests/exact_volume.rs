@@ -9,8 +9,8 @@ use implicitize::mesh::Mesh;
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, VolumeKind, VolumeOptions};
 use implicitize::{DVec3, Error, Resolution};
-use implicitize_test_support::hostile::{cube, open_box};
-use implicitize_test_support::meshes::{merge, point_triangle_distance, sphere, torus};
+use crate::tests::support::hostile::{cube, open_box};
+use crate::tests::support::meshes::{merge, point_triangle_distance, sphere, torus};
 
 fn options(resolution: usize, band: Option<f64>) -> VolumeOptions {
     let mut options = VolumeOptions::default();
@@ -157,7 +157,7 @@ fn bad_bands_and_a_small_memory_limit_are_refused() {
 
 #[test]
 fn degenerate_and_duplicated_triangles_give_the_querys_own_distances() {
-    let mut mesh = implicitize_test_support::hostile::duplicated_and_zero_area();
+    let mut mesh = crate::tests::support::hostile::duplicated_and_zero_area();
     // A sliver: a triangle whose area is lost to rounding against its edges' lengths.
     let n = mesh.vertices.len() as u32;
     mesh.vertices.extend([

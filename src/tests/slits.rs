@@ -6,7 +6,7 @@ use implicitize::fit::FitOptions;
 use implicitize::geometry::DVec3;
 use implicitize::pipeline::{self, Fitted, MeshFitOptions};
 use implicitize::{Field, Mesh, Resolution};
-use implicitize_test_support::meshes::{merge, sphere};
+use crate::tests::support::meshes::{merge, sphere};
 
 /// The grid's longest axis, in voxels.
 const RESOLUTION: usize = 128;

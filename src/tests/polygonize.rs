@@ -5,8 +5,8 @@ use std::collections::HashMap;
 
 use implicitize::polygonize::polygonize_field_dense;
 use implicitize::{DVec3, Field, Grid, Mesh, Resolution, Volume, polygonize, polygonize_field};
-use implicitize_test_support::data::bunny;
-use implicitize_test_support::topology::{components, euler_characteristic};
+use crate::tests::support::data::bunny;
+use crate::tests::support::topology::{components, euler_characteristic};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -4,8 +4,8 @@ use implicitize::fit::{ErrorMeasure, FitOptions, Goal, Termination};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions, Method};
 use implicitize::rbf::SinglePrecision;
 use implicitize::{DVec3, Field, Grid, Mesh, Resolution, polygonize, voxelize};
-use implicitize_test_support::data::triceratops;
-use implicitize_test_support::meshes::{
+use crate::tests::support::data::triceratops;
+use crate::tests::support::meshes::{
     max_vertex_distance, point_triangle_distance, sphere, torus,
 };
 

@@ -6,8 +6,8 @@ use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, SampleOptions};
 use implicitize::sample::{self, Samples};
 use implicitize::{DVec3, Error, Mesh};
-use implicitize_test_support::hostile::{cube, open_box};
-use implicitize_test_support::meshes::{merge, sphere};
+use crate::tests::support::hostile::{cube, open_box};
+use crate::tests::support::meshes::{merge, sphere};
 
 fn options(near_surface: &[f64], uniform: f64, seed: u64) -> SampleOptions {
     let mut options = SampleOptions::default();

@@ -6,9 +6,9 @@ use implicitize::mesh::Mesh;
 use implicitize::mesh_query::{MeshQuery, Nearest};
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
 use implicitize::{Aabb, DVec3, Grid, Resolution};
-use implicitize_test_support::hostile::open_box;
-use implicitize_test_support::meshes::{merge, point_triangle_distance, sphere, torus};
-use implicitize_test_support::points::random_points;
+use crate::tests::support::hostile::open_box;
+use crate::tests::support::meshes::{merge, point_triangle_distance, sphere, torus};
+use crate::tests::support::points::random_points;
 use proptest::prelude::*;
 
 /// The distance from `p` to the segment `ab`.
