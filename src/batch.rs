@@ -161,7 +161,7 @@ pub struct Entry {
     #[serde(default)]
     pub stopped: Option<String>,
     /// The model's polygonized surface against the mesh, both ways, with the share of the mesh
-    /// inside its own solid (see [`crate::metrics::surface::MeshDistances`]).
+    /// inside its own solid (see `crate::metrics::surface::MeshDistances`).
     #[serde(default)]
     pub mesh_distance: Option<crate::metrics::surface::MeshDistances>,
     /// What made the outputs (for a failure, what was tried, when the input could be read).
@@ -393,7 +393,7 @@ impl Entry {
     /// defines; `None` for a failure.
     pub fn worst_p999(&self) -> Option<f64> {
         let d = self.mesh_distance?;
-        Some(d.to_model().p99_9.max(d.from_model().p99_9))
+        Some(d.judged_to_model().p99_9.max(d.judged_from_model().p99_9))
     }
 }
 

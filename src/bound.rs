@@ -37,7 +37,7 @@ use crate::shape::csg::{Composite, Operation};
 
 /// The values a function can take: `lo <= f <= hi`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Interval {
+pub(crate) struct Interval {
     /// The least value possible.
     pub lo: f64,
     /// The largest value possible.
@@ -63,7 +63,7 @@ impl Interval {
 }
 
 /// An interval holding every value of `shape`'s function in `region` (mesh units).
-pub fn range(shape: &Shape, region: &Aabb) -> Interval {
+pub(crate) fn range(shape: &Shape, region: &Aabb) -> Interval {
     match shape {
         Shape::Rbf(implicit) => implicit_range(implicit, region),
         Shape::Levels(levels) => levels_range(levels, region),
@@ -75,7 +75,7 @@ pub fn range(shape: &Shape, region: &Aabb) -> Interval {
 /// eight, up to `depth` times, where [`range`] cannot tell its sign: not positive when some
 /// partition of the region proves the function is nowhere positive there. (Only the sign is
 /// sought: a positive bound is returned as soon as a smallest part may be positive.)
-pub fn upper(shape: &Shape, region: &Aabb, depth: u32) -> f64 {
+pub(crate) fn upper(shape: &Shape, region: &Aabb, depth: u32) -> f64 {
     match shape {
         // The levels' interval over the whole region holds over each part of it: it is found
         // once, and only level 0's is split.
@@ -110,7 +110,7 @@ fn split_upper(range: &dyn Fn(&Aabb) -> Interval, region: &Aabb, depth: u32) -> 
     most
 }
 
-/// [`upper`] over every block of `block`^3 cells of `lattice` (the last block of an axis may be
+/// `upper` over every block of `block`^3 cells of `lattice` (the last block of an axis may be
 /// cut short by the lattice) to `depth`, in parallel; the blocks in the order of a 3D texture:
 /// x fastest, then y, then z. Also returns the blocks per axis.
 pub fn block_uppers(

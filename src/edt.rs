@@ -7,7 +7,7 @@
 //! SciPy's `distance_transform_edt` with the convention
 //! `sd = where(inside, edt(inside) - 0.5, -(edt(~inside) - 0.5))`: positive inside, negative
 //! outside, in voxels, so voxels on either side of the surface are ±1/2.
-//! [`signed_distance_within`] is the same transform exact only within a band around the
+//! `signed_distance_within` is the same transform exact only within a band around the
 //! surface (what the fit reads of its current surface's), which skips most of the work on
 //! large grids.
 //!
@@ -43,7 +43,7 @@ pub fn signed_distance(inside: &Volume<bool>) -> Volume<f32> {
 /// left out of the second and third passes: none of them can be the nearest for a voxel
 /// nearer than `band`, and where the band is thin beside the grid most lines have few of the
 /// others.
-pub fn signed_distance_within(inside: &Volume<bool>, band: f32) -> Volume<f32> {
+pub(crate) fn signed_distance_within(inside: &Volume<bool>, band: f32) -> Volume<f32> {
     transform(inside, f64::from(band.max(1.0)))
 }
 
@@ -251,7 +251,7 @@ impl Line {
 
 /// The boundary voxels ∂f: inside voxels with a 6-neighbour outside, i.e. where `sd == 1/2`,
 /// sorted by index.
-pub fn boundary_voxels(sd: &Volume<f32>) -> Vec<[usize; 3]> {
+pub(crate) fn boundary_voxels(sd: &Volume<f32>) -> Vec<[usize; 3]> {
     let grid = sd.grid;
     sd.data
         .par_iter()
@@ -271,7 +271,7 @@ pub fn boundary_voxels(sd: &Volume<f32>) -> Vec<[usize; 3]> {
 ///
 /// # Panics
 /// If `voxel` lies outside the volume's grid.
-pub fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
+pub(crate) fn surface_point(density: &Volume<f32>, voxel: [usize; 3]) -> DVec3 {
     let grid = density.grid;
     let centre = DVec3::from_array(voxel.map(|x| x as f64));
     let d0 = f64::from(*density.get(voxel));
@@ -352,7 +352,7 @@ pub fn sample(sd: &Volume<f32>, p: DVec3) -> f32 {
 /// The gradient of `sd` at `p`: central differences of the trilinear field [`sample`] over
 /// one voxel (half a voxel each side, clamped to the grid), in value per voxel. It points
 /// inward (uphill); z is 0 on 2D grids.
-pub fn gradient(sd: &Volume<f32>, p: DVec3) -> DVec3 {
+pub(crate) fn gradient(sd: &Volume<f32>, p: DVec3) -> DVec3 {
     let mut g = DVec3::ZERO;
     for axis in 0..3 {
         let n = sd.grid.dims[axis];

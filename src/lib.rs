@@ -78,9 +78,9 @@
 //! | place a voxel grid | [`grid`] | 4 |
 //! | voxelize: densities, robust inside/outside | [`voxelize`] | 4.1 |
 //! | signed distance on the voxels (distance transform), boundary voxels, surface points | [`edt`] | 4.2, 5.1, 5.3 |
-//! | exact distance from points to a mesh, closest points, signed by the inside test | [`mesh_query`] | |
+//! | exact distance from points to a mesh, closest points, signed by the inside test | `mesh_query` | |
 //! | solve and evaluate variational implicit functions | [`rbf`] | 3.1, 5.2 |
-//! | error metrics E, Ew, RMS and the radius of regularity; distances between two surfaces | [`metrics`] | 4.3 |
+//! | error metrics E, Ew, RMS and the radius of regularity; distances between two surfaces | `metrics` | 4.3 |
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
 //! | detail levels of compactly supported functions over the fit | [`rbf::MultiScale`] | |
 //! | a mesh to a fitted model in one call | [`pipeline`] | |
@@ -108,8 +108,8 @@ pub mod goal2d;
 pub mod grid;
 pub mod memory;
 pub mod mesh;
-pub mod mesh_query;
-pub mod metrics;
+pub(crate) mod mesh_query;
+pub(crate) mod metrics;
 pub mod model;
 pub mod morph;
 pub mod npy;
@@ -118,7 +118,7 @@ pub mod pipeline;
 pub mod polygonize;
 pub mod rbf;
 pub mod render;
-pub mod sample;
+pub(crate) mod sample;
 pub mod shader;
 pub mod shape;
 pub mod voxelize;

@@ -198,7 +198,7 @@ impl Estimate {
 
     /// A fit with detail levels of a mesh of `triangles` triangles on a grid of `dims` voxels,
     /// its goal on a grid of `goal_dims` (`dims`, or a coarser grid: see
-    /// [`crate::fit::detail::goal_grid`]), at `points` surface points
+    /// `crate::fit::detail::goal_grid`), at `points` surface points
     /// (`LEVELS_PER_POINT` a point): level 0's iterations, on a grid of a
     /// quarter of the goal's resolution or less, fit in what the goal's measure holds. The
     /// model's surface, polygonized on `dims` once the goal is freed, is
@@ -345,7 +345,7 @@ impl MemoryLimit {
 
 /// The largest value of `setting` in `range` whose estimate fits in `limit` bytes, given that
 /// estimates grow with the setting, or `None` when even the smallest does not fit.
-pub fn largest_fitting(
+pub(crate) fn largest_fitting(
     range: std::ops::RangeInclusive<usize>,
     limit: u64,
     estimate: impl Fn(usize) -> Option<u64>,

@@ -31,7 +31,7 @@ pub fn write<T: npyz::AutoSerialize>(path: &Path, shape: &[u64], data: &[T]) -> 
 
 /// `data` (the shape's number of values) as the bytes of a C-order NumPy `.npy` file of the
 /// given shape.
-pub fn to_bytes<T: npyz::AutoSerialize>(
+pub(crate) fn to_bytes<T: npyz::AutoSerialize>(
     shape: &[u64],
     data: impl IntoIterator<Item = T>,
 ) -> Vec<u8> {

@@ -43,7 +43,7 @@ use crate::mesh::area::ByArea;
 use crate::mesh_query::MeshQuery;
 
 /// What sampling a mesh's signed distance ([`crate::pipeline::sample`]) needs besides the mesh and the number
-/// of points (see the [module doc](self) for how the points are drawn).
+/// of points ([`crate::pipeline::sample`] says how the points are drawn).
 #[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub struct SampleOptions {

@@ -73,7 +73,7 @@ pub struct LevelOptions {
     /// fitted as the paper fits them, so the defaults (200 voxels) are unchanged.
     pub min_axis: usize,
     /// The goal of a fit with levels has at most this many voxels along its longest axis
-    /// (see [`goal_grid`]): on a longer grid it is voxelized at half the resolution (a quarter
+    /// (see `goal_grid`): on a longer grid it is voxelized at half the resolution (a quarter
     /// from four times as long), and the levels reach the grid asked for through points on the
     /// mesh. `usize::MAX` voxelizes every goal on the grid asked for.
     pub max_goal_axis: usize,
@@ -92,7 +92,7 @@ pub struct LevelOptions {
     /// On a grid below `min_axis` whose fit could go on with levels (`after_stall`), a fit of
     /// the paper's loop that met its target is fitted again with levels when the points on the
     /// mesh where the goal agrees with it lie farther than the target plus this many voxels
-    /// from its zero set at the 99.9th percentile ([`mesh_distance`]): sharp corners and thin
+    /// from its zero set at the 99.9th percentile (`mesh_distance`): sharp corners and thin
     /// spikes that the goal's voxels round off, which E on the voxels does not see.
     pub mesh_slack: f64,
     /// Centres of a level are at least this fraction of its support radius apart.

@@ -20,10 +20,10 @@
 
 mod coarse;
 mod compact;
-pub mod detail;
+pub(crate) mod detail;
 mod goal;
 mod init;
-pub mod naive;
+pub(crate) mod naive;
 mod refine;
 mod report;
 mod slit;
@@ -39,11 +39,12 @@ use crate::error::Result;
 use crate::field::Field;
 use crate::geometry::DVec3;
 use crate::grid::{Grid, Volume};
-use crate::metrics::{self, BoundaryErrors, ErrorMetrics, RegularityOptions, SubVoxel};
+pub use crate::metrics::RegularityOptions;
+use crate::metrics::{self, BoundaryErrors, ErrorMetrics, SubVoxel};
 use crate::rbf::{self, Implicit, Kernel};
 
 pub use compact::Precision;
-pub use detail::{LevelOptions, LevelledFit};
+pub use detail::LevelOptions;
 pub use goal::Goal;
 pub(crate) use goal::MESH_AGREEMENT;
 pub use report::{
@@ -143,7 +144,7 @@ pub struct FitOptions {
     pub kernel: Kernel,
     /// How radii of regularity are measured.
     pub regularity: RegularityOptions,
-    /// Detail levels over the fit on large grids (see [`detail`]).
+    /// Detail levels over the fit on large grids (see `detail`).
     pub levels: LevelOptions,
     /// How finely the fit stores its functions (see `compact.rs`).
     pub precision: compact::Precision,
@@ -224,7 +225,7 @@ pub enum ErrorMeasure {
     #[default]
     Voxel,
     /// E to sub-voxel precision: the largest distance from a point on either surface to the
-    /// other ([`ErrorMetrics::max_error_subvoxel`]), 0 for surfaces that coincide. Free of the
+    /// other (`ErrorMetrics::max_error_subvoxel`), 0 for surfaces that coincide. Free of the
     /// voxel steps, it is the measure for targets of a voxel or less (on the bunny at 128, a
     /// voxel-centre E of 1.50 went with a sub-voxel E of 0.99). A fit of a mesh
     /// ([`crate::pipeline::Prepared::new`]) measures the current surface's points against the

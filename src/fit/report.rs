@@ -215,7 +215,7 @@ pub enum Termination {
         limit: usize,
     },
     /// The paper's loop reached [`super::LevelOptions::loop_constraints`] above its target, and
-    /// the fit went on with detail levels (see [`super::detail::loop_limit`]).
+    /// the fit went on with detail levels (see `super::detail::loop_limit`).
     LoopLimit {
         /// The constraints.
         constraints: usize,
@@ -314,7 +314,7 @@ pub struct FitReport {
     /// ([`crate::voxelize::Ambiguity`]); `None` for a goal given as densities.
     pub winding_near_half: Option<f64>,
     /// How thick the goal's solid is (see [`super::Thickness`]), in voxels of the fit's grid
-    /// (measured on the goal's, which may be coarser: [`super::detail::goal_grid`]); `None` for
+    /// (measured on the goal's, which may be coarser: `super::detail::goal_grid`); `None` for
     /// a goal given as densities.
     pub thickness: Option<super::Thickness>,
     /// For a fit of a mesh's surface thickened into a shell (`shell`), its thickness in all,
@@ -327,7 +327,7 @@ pub struct FitReport {
     pub levels: Option<LevelsReport>,
     /// For a mesh's fit, the model's polygonized surface (the one `--mesh-out` writes)
     /// measured against the mesh both ways with exact distances, in voxels
-    /// ([`crate::metrics::surface`]); `None` for a goal given as densities, or where either
+    /// (`crate::metrics::surface`); `None` for a goal given as densities, or where either
     /// surface has no area.
     pub mesh_distance: Option<MeshDistances>,
     /// For a fit under a byte budget (`max_bytes`), what was chosen and what was tried; absent
@@ -339,7 +339,7 @@ pub struct FitReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub target: Option<TargetOutcome>,
     /// For a fit of the paper's loop on a grid without detail levels that was fitted again with
-    /// them and replaced (it stalled above its target, [`super::detail::stalled`], or left the
+    /// them and replaced (it stalled above its target, `super::detail::stalled`, or left the
     /// mesh's points farther than the target allows, `fit::detail::checks_mesh`): how that
     /// first fit ended; absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -356,7 +356,7 @@ pub struct PaperLoop {
     /// Its E, voxels.
     pub max_error_voxels: f32,
     /// Where it met its target: the 99.9th percentile of its distance to the mesh's points
-    /// ([`super::detail::mesh_distance`]), voxels, above the target plus
+    /// (`super::detail::mesh_distance`), voxels, above the target plus
     /// [`super::LevelOptions::mesh_slack`]; absent where it stalled.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mesh_p999_voxels: Option<f64>,

@@ -104,7 +104,7 @@ impl Thickness {
     }
 
     /// These figures in voxels `scale` times smaller: a goal's on the grid asked for, where
-    /// the goal's voxels are `scale` of that grid's ([`crate::fit::detail::goal_grid`]).
+    /// the goal's voxels are `scale` of that grid's (`crate::fit::detail::goal_grid`).
     pub fn in_smaller_voxels(self, scale: f64) -> Thickness {
         Thickness {
             max_depth: self.max_depth * scale,

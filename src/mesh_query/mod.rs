@@ -37,22 +37,8 @@
 //! * **Errors:** a mesh with no triangles, an index out of range or a non-finite coordinate is
 //!   refused with an [`Error`] naming the problem; no input panics.
 //!
-//! ```
-//! use implicitize::mesh::Mesh;
-//! use implicitize::mesh_query::MeshQuery;
-//! use implicitize::DVec3;
-//!
-//! let mesh = Mesh {
-//!     vertices: vec![DVec3::ZERO, DVec3::X, DVec3::Y],
-//!     triangles: vec![[0, 1, 2]],
-//! };
-//! let distance = MeshQuery::new(&mesh)?;
-//! let nearest = distance.nearest(DVec3::new(0.25, 0.25, 2.0));
-//! assert_eq!(nearest.distance, 2.0);
-//! assert_eq!(nearest.point, DVec3::new(0.25, 0.25, 0.0));
-//! assert_eq!(nearest.triangle, 0);
-//! # Ok::<(), implicitize::Error>(())
-//! ```
+//! Users reach it through the distance job (`pipeline::distance`: the exact distance and
+//! closest point of each query point) and the exact signed distance volumes and samples.
 
 use std::cmp::Ordering;
 use std::sync::OnceLock;

@@ -105,7 +105,7 @@ impl MeshDistances {
     /// The side from the mesh to the model that a fit is judged by: the surface of the solid
     /// an open mesh's winding number defines, else the faces that bound the solid where some
     /// lie inside it, else the whole mesh.
-    pub fn to_model(&self) -> &DistanceSummary {
+    pub fn judged_to_model(&self) -> &DistanceSummary {
         self.solid_to_model
             .as_ref()
             .or(self.bounding_to_model.as_ref())
@@ -114,7 +114,7 @@ impl MeshDistances {
 
     /// The side from the model to the mesh that a fit is judged by: to the surface of the
     /// solid an open mesh's winding number defines, else to the mesh.
-    pub fn from_model(&self) -> &DistanceSummary {
+    pub fn judged_from_model(&self) -> &DistanceSummary {
         self.model_to_solid.as_ref().unwrap_or(&self.model_to_mesh)
     }
 }

@@ -62,7 +62,7 @@
 //! ```
 //!
 //! Its value is level 0's plus `sum_j w_j psi(|x - c_j| / rho)` of each level, `psi` Wendland's
-//! C2 function (see [`crate::rbf::wendland`]). A file is written as version 1 when its shape
+//! C2 function (see `crate::rbf::wendland`). A file is written as version 1 when its shape
 //! has no levels, so that builds that only read version 1 still read it; both versions are
 //! read, and a version 1 file with levels is refused.
 //!

@@ -217,7 +217,7 @@ pub enum VolumeKind {
     SignedDistance,
     /// The exact distance from each voxel centre to the mesh's triangles, in mesh units,
     /// positive where the voxelization is inside (the sign of [`VolumeKind::SignedDistance`]);
-    /// see [`mesh_query::grid`].
+    /// see `mesh_query::grid`.
     ExactSignedDistance,
 }
 
@@ -226,7 +226,7 @@ pub enum VolumeKind {
 #[non_exhaustive]
 pub struct DistanceOptions {
     /// Sign the distances, positive inside as the voxelizer decides it (default; see
-    /// [`crate::mesh_query`]), or leave them unsigned (and skip that work).
+    /// `crate::mesh_query`), or leave them unsigned (and skip that work).
     pub signed: bool,
     /// The memory the job may use.
     pub memory_limit: MemoryLimit,
@@ -276,7 +276,7 @@ pub struct FitOutputs {
     pub surface: Option<PathBuf>,
     /// The goal's signed distance volume (NumPy, with its grid in a `.json` beside it): on the
     /// fit's grid, or on the coarser grid of the goal of a fit with detail levels on a large
-    /// grid ([`fit::detail::goal_grid`]).
+    /// grid (`fit::detail::goal_grid`).
     pub sdf: Option<PathBuf>,
 }
 
@@ -757,7 +757,7 @@ pub fn volume(
 }
 
 /// The exact distance from each of `points` to `mesh`'s triangles and the closest points (see
-/// [`crate::mesh_query`]), signed (inside as the voxelizer decides it) unless `options` says not to.
+/// `crate::mesh_query`), signed (inside as the voxelizer decides it) unless `options` says not to.
 /// `source` names the mesh in errors.
 ///
 /// # Errors
@@ -794,8 +794,12 @@ pub fn distance(
 }
 
 /// `n` points near `mesh`'s surface and uniform around it, with the exact signed distance at
-/// each (inside positive, mesh units), drawn as `options` say (see [`crate::sample`]).
-/// `source` names the mesh in errors.
+/// each (inside positive, mesh units), drawn as DeepSDF draws them and as `options` say:
+/// `round(uniform n)` points uniform in the mesh's box grown by 10% of its size on every side,
+/// the rest split evenly among the standard deviations of `near_surface`, each a point uniform
+/// on a triangle chosen by area plus Gaussian noise of that deviation times the box's
+/// diagonal. The same mesh, `n` and options give the same samples bit for bit on any number of
+/// threads. `source` names the mesh in errors.
 ///
 /// # Errors
 /// An option out of range or `n` of 0; a mesh without triangles, with an index out of range
@@ -895,7 +899,7 @@ impl<'a> Prepared<'a> {
     /// # Errors
     /// An `IMPLICITIZE_ISA` this CPU cannot run ([`Isa::from_env`]), an option out of range, a
     /// grid that cannot be placed or does not fit in the memory limit, the errors of
-    /// [`voxelize::voxelize`] and [`MeshQuery::new`], and a solid too thin for the grid
+    /// [`voxelize::voxelize`] and `MeshQuery::new`, and a solid too thin for the grid
     /// ([`Error::Thin`], see [`Thickness::refusal`]), refused before its goal is made.
     pub fn new(mesh: &'a Mesh, source: &str, options: &MeshFitOptions) -> Result<Prepared<'a>> {
         Isa::from_env()?;
@@ -1019,7 +1023,7 @@ impl<'a> Prepared<'a> {
 
     /// The grid asked for, whose voxels the fit's errors are stated in: the grid the mesh was
     /// voxelized on, unless a fit with detail levels voxelizes its goal on a coarser one
-    /// ([`fit::detail::goal_grid`]; [`Prepared::goal`] has its grid).
+    /// (`fit::detail::goal_grid`; [`Prepared::goal`] has its grid).
     pub fn grid(&self) -> &Grid {
         &self.grid
     }
@@ -1047,7 +1051,7 @@ impl<'a> Prepared<'a> {
     /// reaches that cap ends there ([`Termination::MemoryLimit`]) with its best model.
     ///
     /// The model's zero set is then polygonized on the fit's grid ([`Fitted::surface`]) and
-    /// measured against the mesh both ways, exactly ([`crate::metrics::surface`]): the
+    /// measured against the mesh both ways, exactly (`crate::metrics::surface`): the
     /// report's `mesh_distance`. That runs once the fit's iteration volumes and solve are
     /// freed, and has no estimate of its own: the polygonization and the two distance
     /// hierarchies (about 260 bytes a triangle of either surface).
@@ -1314,7 +1318,7 @@ pub fn warnings(
 }
 
 /// What a fit's outcome warns of, one line each (no file name): a target not met
-/// ([`above_target`]), faces inside the mesh's own solid (`interior_surface`). The warnings
+/// (`above_target`), faces inside the mesh's own solid (`interior_surface`). The warnings
 /// known before the fit are [`Prepared::warnings`]; [`Fitted::warnings`] gives both.
 pub fn outcome_warnings(report: &FitReport) -> Vec<String> {
     above_target(report).into_iter().chain(interior_surface(report)).collect()
@@ -1324,7 +1328,7 @@ pub fn outcome_warnings(report: &FitReport) -> Vec<String> {
 /// target, why it stopped, and where the mesh lies farthest from the model; for a fit of the
 /// paper's loop that stopped improving, that a grid from [`fit::LevelOptions::min_axis`] voxels adds
 /// detail levels where it stalls.
-pub fn above_target(report: &FitReport) -> Option<String> {
+pub(crate) fn above_target(report: &FitReport) -> Option<String> {
     let target = report.target.filter(|t| !t.met)?;
     let (error, stopped) = match &report.levels {
         Some(levels) => (

@@ -388,7 +388,7 @@ impl DetailLevel {
     }
 
     /// The lattice its centres and weights lie on, when the fit made it compact (see
-    /// [`Lattice`]).
+    /// `Lattice`).
     pub fn lattice(&self) -> Option<&Lattice> {
         self.lattice.as_ref()
     }

@@ -32,7 +32,7 @@
 //!   a unit-sized one, and this changes nothing in the function (see below).
 //! * The solve, single values and gradients, and the values of [`Implicit::values3`],
 //!   [`Implicit::values_flat`] and [`Field::values`] are f64 (see below); only
-//!   [`SinglePrecision`], for the fit's volume passes, sums in f32.
+//!   `SinglePrecision`, for the fit's volume passes, sums in f32.
 //! * [`evaluate_on_grid`] is the paper's coarse-to-fine volume evaluation (5.2), with its one
 //!   blind spot documented there.
 //!
@@ -58,7 +58,7 @@
 //! rayon.
 //!
 //! The fit's volume passes need each voxel's sign and the surface's position to a small
-//! fraction of a voxel, no more: through [`SinglePrecision`] they sum the thin-plate kernel in
+//! fraction of a voxel, no more: through `SinglePrecision` they sum the thin-plate kernel in
 //! f32 (a loop on every instruction set, see `kernel/`), and the fit measures a model's
 //! f32 error at its boundary constraints first, keeping f64 where f32 would misplace the surface
 //! by more than a share of its target error.
@@ -94,12 +94,14 @@ use crate::error::{Error, Result};
 use crate::field::Field;
 use crate::geometry::DVec3;
 
-pub use compact::{DetailLevel, GridIndex, SparseSolve, wendland};
-pub use csv::{read_constraints, read_constraints_bytes, read_points, read_points_bytes};
+pub use compact::DetailLevel;
+pub(crate) use compact::wendland;
+pub use csv::{read_constraints, read_points};
 pub use grid::evaluate_on_grid;
-pub use isa::{ENV as ISA_ENV, Isa, IsaLevel};
+pub use isa::Isa;
+pub use isa::{ENV as ISA_ENV, IsaLevel};
 pub use kernel::Kernel;
-pub use lattice::Lattice;
+pub(crate) use lattice::Lattice;
 pub(crate) use lattice::{extent as lattice_extent, morton_order as lattice_order};
 pub use multiscale::MultiScale;
 pub(crate) use solve::DIRECT_MAX;
@@ -255,7 +257,7 @@ impl Implicit {
     }
 
     /// The lattice its centres, weights and values lie on, when the fit made it compact (see
-    /// [`Lattice`]): what lets a binary model file store them as small integers.
+    /// `Lattice`): what lets a binary model file store them as small integers.
     pub fn lattice(&self) -> Option<&Lattice> {
         self.lattice.as_ref()
     }
@@ -393,7 +395,7 @@ impl Implicit {
 /// fit does). For passes that need signs and the surface's position to a small fraction of a
 /// voxel, as the fit's volume passes; single values and gradients stay f64.
 #[derive(Debug, Clone, Copy)]
-pub struct SinglePrecision<'a>(pub &'a Implicit);
+pub(crate) struct SinglePrecision<'a>(pub &'a Implicit);
 
 impl Field for SinglePrecision<'_> {
     fn value(&self, p: DVec3) -> f64 {

@@ -3,14 +3,14 @@
 //! sign against the voxelization's inside, the band's clamping and that no voxel within the
 //! band is missed, analytic boxes and spheres, and the options' and memory's refusals.
 
+use crate::tests::support::hostile::{cube, open_box};
+use crate::tests::support::meshes::{merge, point_triangle_distance, sphere, torus};
 use implicitize::grid::Volume;
 use implicitize::memory::{Estimate, MemoryLimit};
 use implicitize::mesh::Mesh;
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, VolumeKind, VolumeOptions};
 use implicitize::{DVec3, Error, Resolution};
-use crate::tests::support::hostile::{cube, open_box};
-use crate::tests::support::meshes::{merge, point_triangle_distance, sphere, torus};
 
 fn options(resolution: usize, band: Option<f64>) -> VolumeOptions {
     let mut options = VolumeOptions::default();

@@ -1,13 +1,11 @@
 //! The iterative fit (paper 5) end to end on shapes with known answers.
 
+use crate::tests::support::data::triceratops;
+use crate::tests::support::meshes::{max_vertex_distance, point_triangle_distance, sphere, torus};
 use implicitize::fit::{ErrorMeasure, FitOptions, Goal, Termination};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions, Method};
 use implicitize::rbf::SinglePrecision;
 use implicitize::{DVec3, Field, Grid, Mesh, Resolution, polygonize, voxelize};
-use crate::tests::support::data::triceratops;
-use crate::tests::support::meshes::{
-    max_vertex_distance, point_triangle_distance, sphere, torus,
-};
 
 /// Fits `mesh` at `resolution` with `options`, through the front door.
 fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> Fitted {

@@ -4,6 +4,8 @@
 
 use std::sync::OnceLock;
 
+use crate::tests::support::meshes::{max_vertex_distance, torus};
+use crate::tests::support::points::random_points;
 use implicitize::batch::{self, BatchOptions};
 use implicitize::fit::{FitOptions, LevelsStop, Termination};
 use implicitize::morph::{self, Morph, MorphOptions};
@@ -12,8 +14,6 @@ use implicitize::rbf::MultiScale;
 use implicitize::shader::{self, Language};
 use implicitize::shape::Shape;
 use implicitize::{Field, Mesh, Model, Resolution, polygonize};
-use crate::tests::support::meshes::{max_vertex_distance, torus};
-use crate::tests::support::points::random_points;
 
 /// The target, in voxels of the 128 grid.
 const TARGET: f32 = 1.0;
@@ -369,7 +369,7 @@ fn a_fit_whose_corners_lie_beyond_the_target_goes_on_with_detail_levels() {
     assert!(within.report.paper_loop.is_none() && within.report.levels.is_none());
     let target = f64::from(options.fit.target_error);
     assert!(within.report.max_error_voxels <= options.fit.target_error);
-    let before = within.report.mesh_distance.expect("measured").to_model().p99_9;
+    let before = within.report.mesh_distance.expect("measured").judged_to_model().p99_9;
     assert!(before > target, "the corners lie {before} voxels from the loop's model");
 
     options.fit.levels.mesh_slack = 0.25;
@@ -379,7 +379,7 @@ fn a_fit_whose_corners_lie_beyond_the_target_goes_on_with_detail_levels() {
     let far = first.mesh_p999_voxels.expect("the loop met its target: how far the mesh was");
     assert!(far > target + 0.25, "{far}");
     assert!(fitted.report.levels.is_some() && fitted.report.target.is_some_and(|t| t.met));
-    let after = fitted.report.mesh_distance.expect("measured").to_model().p99_9;
+    let after = fitted.report.mesh_distance.expect("measured").judged_to_model().p99_9;
     assert!(after < target, "the mesh lies {after} voxels from the model, {before} before");
     assert!(fitted.report.table("t").contains("0.1% of the mesh's points farther than"));
 }

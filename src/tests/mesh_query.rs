@@ -2,13 +2,13 @@
 //! near the surface and far from it, on degenerate triangles, on vertices and edges; the
 //! closest point against its triangle and barycentric coordinates; the sign; bad meshes.
 
+use crate::tests::support::hostile::open_box;
+use crate::tests::support::meshes::{merge, point_triangle_distance, sphere, torus};
+use crate::tests::support::points::random_points;
 use implicitize::mesh::Mesh;
 use implicitize::mesh_query::{MeshQuery, Nearest};
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
 use implicitize::{Aabb, DVec3, Grid, Resolution};
-use crate::tests::support::hostile::open_box;
-use crate::tests::support::meshes::{merge, point_triangle_distance, sphere, torus};
-use crate::tests::support::points::random_points;
 use proptest::prelude::*;
 
 /// The distance from `p` to the segment `ab`.

@@ -6,11 +6,11 @@
 use std::path::Path;
 use std::sync::LazyLock;
 
+use crate::tests::support::data::triceratops;
+use crate::tests::support::shells::open_hemisphere;
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::voxelize::shell::Shell;
 use implicitize::{DVec3, Field, MeshFitOptions, Model, Resolution, pipeline};
-use crate::tests::support::data::triceratops;
-use crate::tests::support::shells::open_hemisphere;
 use proptest::prelude::*;
 
 /// Valid binary files: a thin-plate model on its lattice, a model with detail levels (a

@@ -2,13 +2,13 @@
 
 use std::sync::OnceLock;
 
+use crate::tests::support::meshes::{sphere, torus};
+use crate::tests::support::topology;
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions, Similarity};
 use implicitize::rbf::{Constraint, Implicit, Kernel};
 use implicitize::{Aabb, DVec3, Field, Grid, Mesh, MeshFitOptions, Resolution, polygonize};
-use crate::tests::support::meshes::{sphere, torus};
-use crate::tests::support::topology;
 
 /// Fits `mesh` at a small resolution.
 fn fitted(mesh: &Mesh) -> Model {

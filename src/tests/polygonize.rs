@@ -3,10 +3,10 @@
 
 use std::collections::HashMap;
 
-use implicitize::polygonize::polygonize_field_dense;
-use implicitize::{DVec3, Field, Grid, Mesh, Resolution, Volume, polygonize, polygonize_field};
 use crate::tests::support::data::bunny;
 use crate::tests::support::topology::{components, euler_characteristic};
+use implicitize::polygonize::polygonize_field_dense;
+use implicitize::{DVec3, Field, Grid, Mesh, Resolution, Volume, polygonize, polygonize_field};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

@@ -1,13 +1,13 @@
 //! Samples of a mesh's signed distance (`pipeline::sample`): counts, the spread of the near
 //! points, the uniform box, signs, DeepSDF's layout, determinism and refusals.
 
+use crate::tests::support::hostile::{cube, open_box};
+use crate::tests::support::meshes::{merge, sphere};
 use implicitize::memory::MemoryLimit;
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, SampleOptions};
 use implicitize::sample::{self, Samples};
 use implicitize::{DVec3, Error, Mesh};
-use crate::tests::support::hostile::{cube, open_box};
-use crate::tests::support::meshes::{merge, sphere};
 
 fn options(near_surface: &[f64], uniform: f64, seed: u64) -> SampleOptions {
     let mut options = SampleOptions::default();

@@ -3,14 +3,14 @@
 //! (The GLSL's compilation by glslangValidator and its values on a GPU are tested through the
 //! command: crates/implicitize-cli/tests/cli_view.rs and python/tests/test_viewer.py.)
 
+use crate::tests::support::models::{ball, disc_2d, sphere_directions};
+use crate::tests::support::wgsl;
 use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::rbf::{Constraint, Implicit, Kernel};
 use implicitize::shader::{Language, source, texture_source};
 use implicitize::shape::Shape;
 use implicitize::{Aabb, DVec3};
-use crate::tests::support::models::{ball, disc_2d, sphere_directions};
-use crate::tests::support::wgsl;
 
 /// A unit ball at `center` solved with `kernel`.
 fn ball_with(kernel: Kernel, center: DVec3) -> Model {

@@ -2,11 +2,11 @@
 //! voxelization bridges the gap between them, are fitted with the gap open and the mesh near the
 //! model both ways; a mesh without slits carves nothing.
 
+use crate::tests::support::meshes::{merge, sphere};
 use implicitize::fit::FitOptions;
 use implicitize::geometry::DVec3;
 use implicitize::pipeline::{self, Fitted, MeshFitOptions};
 use implicitize::{Field, Mesh, Resolution};
-use crate::tests::support::meshes::{merge, sphere};
 
 /// The grid's longest axis, in voxels.
 const RESOLUTION: usize = 128;

@@ -3,6 +3,8 @@
 //! that names the file, the thickness measured and what would work; never an error of the
 //! solver.
 
+use crate::tests::support::meshes::sphere;
+use crate::tests::support::shells::{hollow_ball, open_hemisphere, parallel_sheets};
 use implicitize::error::FrontEnd;
 use implicitize::field::Field;
 use implicitize::fit::Thickness;
@@ -10,8 +12,6 @@ use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, MeshFitOptions, MeshSource, Prepared};
 use implicitize::voxelize::shell::Shell;
 use implicitize::{DVec3, Error, Mesh, Resolution};
-use crate::tests::support::meshes::sphere;
-use crate::tests::support::shells::{hollow_ball, open_hemisphere, parallel_sheets};
 
 /// The grid of the tests: small, so that each fit takes a second or two.
 const RESOLUTION: usize = 48;

@@ -3,11 +3,11 @@
 
 use std::collections::HashMap;
 
+use crate::tests::support::data::triceratops;
+use crate::tests::support::meshes::{merge, torus};
 use implicitize::edt::inside;
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
 use implicitize::{DVec3, Grid, Mesh, Resolution, Volume};
-use crate::tests::support::data::triceratops;
-use crate::tests::support::meshes::{merge, torus};
 
 /// A sphere: an icosahedron subdivided `levels` times, outward facing.
 fn sphere(centre: DVec3, radius: f64, levels: usize) -> Mesh {

@@ -3,7 +3,7 @@
 //! outside), the solid of the points within half a thickness `T` of the mesh, whichever side.
 //!
 //! Each voxel centre's unsigned distance `d` to the triangles is exact
-//! ([`crate::mesh_query::grid`], within a band of `T/2` plus two voxels; farther voxels are
+//! (`crate::mesh_query::grid`, within a band of `T/2` plus two voxels; farther voxels are
 //! outside). Its density is `1/2 + (T/2 - d) / 2h` clamped to [0, 1] (`h` the voxel size): a
 //! ramp two voxels wide that crosses 1/2 exactly where `d = T/2`. Both ends of a grid edge that
 //! crosses the thickened surface are within a voxel of it, on the ramp, so the goal's surface
@@ -88,7 +88,7 @@ impl FromStr for Shell {
 
 /// The densities on `grid` of the surface of `query` thickened to `thickness` mesh units in
 /// all (see the module doc), 1 inside.
-pub fn densities(query: &MeshQuery, grid: &Grid, thickness: f64) -> Volume<f32> {
+pub(crate) fn densities(query: &MeshQuery, grid: &Grid, thickness: f64) -> Volume<f32> {
     let half = thickness / 2.0;
     let band = half / grid.voxel_size + 2.0;
     let mut volume =

@@ -10,7 +10,7 @@
 use std::collections::HashMap;
 
 use implicitize::fit::Goal;
-use implicitize::metrics::RegularityOptions;
+use implicitize::fit::RegularityOptions;
 use implicitize::render::{Camera, Image, render_mesh_scalars};
 use implicitize::{DVec3, Mesh, Result, polygonize};
 

@@ -12,8 +12,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use implicitize::fit::Goal;
+use implicitize::fit::RegularityOptions;
 use implicitize::memory::Estimate;
-use implicitize::metrics::RegularityOptions;
 use implicitize::model::Model;
 use implicitize::pipeline::{MeshFitOptions, Prepared};
 use implicitize::render::{
