@@ -212,10 +212,8 @@ pub fn fit_options(
 fn setting_value(setting: &Setting, value: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
     use serde_json::Value;
     let name = setting.name;
-    let wrong = || {
-        let shown = value.repr().map_or_else(|_| "?".into(), |r| r.to_string());
-        invalid(format!("{name} must be {}, not {shown}", setting.kind.words()))
-    };
+    let shown = || value.repr().map_or_else(|_| "?".into(), |r| r.to_string());
+    let wrong = || invalid(format!("{name} must be {}, not {}", setting.kind.words(), shown()));
     let number = |x: f64| serde_json::Number::from_f64(x).map(Value::Number);
     let whole = |v: &Bound<'_, PyAny>| {
         (!v.is_instance_of::<PyBool>())
@@ -226,12 +224,11 @@ fn setting_value(setting: &Setting, value: &Bound<'_, PyAny>) -> PyResult<serde_
     match setting.kind {
         Kind::Switch => Ok(Value::Bool(value.is_truthy()?)),
         Kind::Count => whole(value).map(Value::from).ok_or_else(wrong),
-        Kind::Number => value.extract::<f64>().ok().and_then(number).ok_or_else(|| {
-            invalid(format!(
-                "{name} must be a finite number, not {}",
-                value.repr().map_or_else(|_| "?".into(), |r| r.to_string())
-            ))
-        }),
+        Kind::Number => value
+            .extract::<f64>()
+            .ok()
+            .and_then(number)
+            .ok_or_else(|| invalid(format!("{name} must be a finite number, not {}", shown()))),
         Kind::Counts3 => {
             let items: Vec<Bound<'_, PyAny>> =
                 value.try_iter().map_err(|_| wrong())?.collect::<PyResult<_>>()?;
