@@ -100,10 +100,10 @@
 pub mod batch;
 pub mod bound;
 pub mod edt;
-pub mod error;
-pub mod field;
+mod error;
+mod field;
 pub mod fit;
-pub mod geometry;
+mod geometry;
 pub mod goal2d;
 pub mod grid;
 pub mod memory;
@@ -129,7 +129,7 @@ extern crate self as implicitize;
 #[cfg(test)]
 mod tests;
 
-pub use error::{Error, Result};
+pub use error::{Error, FrontEnd, Location, Result, worded};
 pub use field::Field;
 pub use geometry::{Aabb, DVec3};
 pub use grid::{Grid, Resolution, Volume};

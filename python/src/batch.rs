@@ -52,7 +52,7 @@ pub fn batch_convert(
     options.fit = fit;
     options.sdf = sdf;
     options.samples = samples;
-    options.wording = implicitize::error::FrontEnd::Python;
+    options.wording = implicitize::FrontEnd::Python;
     let job = Job { input, name };
     let entry = py.detach(|| {
         std::fs::create_dir_all(&out_dir)

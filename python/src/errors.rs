@@ -4,7 +4,7 @@
 //! Python's keywords (`resolution=812` where the command line says `--resolution 812`).
 //! Warnings are `UserWarning`s, worded the same way.
 
-use implicitize::error::FrontEnd;
+use implicitize::FrontEnd;
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyValueError};
 use pyo3::prelude::*;
 
@@ -27,7 +27,7 @@ pub fn invalid(message: impl Into<String>) -> PyErr {
 /// `UserWarning`, its settings worded as keywords, pointing at the line that called the
 /// package's function (two frames up: the package's wrapper calls the extension).
 pub fn warn(py: Python<'_>, warning: &str) -> PyResult<()> {
-    let message = implicitize::error::worded(warning, FrontEnd::Python).replace('\0', " ");
+    let message = implicitize::worded(warning, FrontEnd::Python).replace('\0', " ");
     let message = std::ffi::CString::new(message).unwrap_or_default();
     let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
     PyErr::warn(py, category.as_any(), &message, 2)

@@ -144,7 +144,7 @@ pub struct FitOptions {
     pub kernel: Kernel,
     /// How radii of regularity are measured.
     pub regularity: RegularityOptions,
-    /// Detail levels over the fit on large grids (see `detail`).
+    /// Detail levels over the fit on large grids (see [`LevelOptions`]).
     pub levels: LevelOptions,
     /// How finely the fit stores its functions (see `compact.rs`).
     pub precision: compact::Precision,

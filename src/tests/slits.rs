@@ -3,8 +3,8 @@
 //! model both ways; a mesh without slits carves nothing.
 
 use crate::tests::support::meshes::{merge, sphere};
+use implicitize::DVec3;
 use implicitize::fit::FitOptions;
-use implicitize::geometry::DVec3;
 use implicitize::pipeline::{self, Fitted, MeshFitOptions};
 use implicitize::{Field, Mesh, Resolution};
 

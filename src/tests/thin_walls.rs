@@ -5,8 +5,8 @@
 
 use crate::tests::support::meshes::sphere;
 use crate::tests::support::shells::{hollow_ball, open_hemisphere, parallel_sheets};
-use implicitize::error::FrontEnd;
-use implicitize::field::Field;
+use implicitize::Field;
+use implicitize::FrontEnd;
 use implicitize::fit::Thickness;
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, MeshFitOptions, MeshSource, Prepared};
@@ -240,7 +240,7 @@ fn thin_walls_that_are_fitted_are_warned_about() {
     let warning = &warnings[0];
     assert!(warning.contains("of the surface is on walls about"), "{warning}");
     assert!(warnings[1].contains("ended above its target"), "{warnings:?}");
-    let named = named_resolution(&implicitize::error::worded(warning, FrontEnd::Cli));
+    let named = named_resolution(&implicitize::worded(warning, FrontEnd::Cli));
     assert!(named.is_some_and(|n| n > RESOLUTION), "{warning}");
     let mut shell = fast.clone();
     shell.shell = Some(Shell::Voxels(2.0));

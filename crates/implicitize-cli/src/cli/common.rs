@@ -114,7 +114,7 @@ pub fn warn_if_open(source: &str, ambiguity: &implicitize::voxelize::Ambiguity) 
 /// Prints a library warning about `source` on stderr (even with --quiet), its settings worded
 /// as flags.
 pub fn warn(source: &str, warning: &str) {
-    let warning = implicitize::error::worded(warning, implicitize::error::FrontEnd::Cli);
+    let warning = implicitize::worded(warning, implicitize::FrontEnd::Cli);
     eprintln!("warning: {source}: {warning}");
 }
 

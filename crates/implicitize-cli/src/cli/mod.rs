@@ -6,7 +6,7 @@
 use std::process::ExitCode;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
-use implicitize::error::FrontEnd;
+use implicitize::FrontEnd;
 use implicitize::pipeline::VolumeKind;
 
 mod batch;
@@ -92,7 +92,7 @@ pub fn run() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            let message = implicitize::error::worded(&format!("{e:#}"), FrontEnd::Cli);
+            let message = implicitize::worded(&format!("{e:#}"), FrontEnd::Cli);
             eprintln!("error: {message}");
             ExitCode::FAILURE
         }
