@@ -16,7 +16,7 @@
 //!
 //! ## Guarantees
 //! * [`DetailLevel::value`] and [`DetailLevel::gradient`] read only the centres whose support
-//!   covers the point, through a hash grid of cells of side `rho / 2` in which each centre is
+//!   covers the point, through a hash grid of cells of side `rho` in which each centre is
 //!   listed in every cell its support meets: one cell is looked up per point, and the centres
 //!   are stored along a Morton curve so that a cell's lie close in memory. They equal the sums over
 //!   every centre ([`DetailLevel::value_brute_force`]) up to rounding, since a centre left out
@@ -64,10 +64,12 @@ pub(crate) const CG_TOLERANCE: f64 = 1e-10;
 /// makes need tens to a few hundred).
 const CG_MAX_ITERATIONS: usize = 5000;
 
-/// Cells of the support index per support radius: a cell of side `rho / 2` lists the centres
-/// within `rho` of any of its points, of which about 40% cover a given point of the cell (20%
-/// with cells of side `rho`), for about 84 entries per centre.
-const CELLS_PER_RADIUS: f64 = 2.0;
+/// Cells of the support index per support radius: a cell of side `rho` lists the centres
+/// within `rho` of any of its points, and each centre is listed in at most 27 cells. Cells of
+/// side `rho / 2` list fewer centres that miss a given point, but each centre in up to 125
+/// cells, and building them costs more than the shorter lists save (docs/results.md, "What
+/// was tried and not kept").
+const CELLS_PER_RADIUS: f64 = 1.0;
 
 /// Centres a task of [`SupportIndex::new`] takes at a time.
 const INDEX_BLOCK: usize = 1024;
