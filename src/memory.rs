@@ -46,7 +46,7 @@ const LEVELS_PER_VOXEL: u64 = 14;
 /// Bytes per goal surface point a fit with detail levels holds beyond the fit's grids: a point
 /// on the mesh (kept by the goal) and its copy, the point, its residual and error and their
 /// copies as candidates, at worst a centre of the finest level with its sparse row (about
-/// pi / spacing^2 neighbours of 12 bytes), its support index entries (about 84 of 4 bytes) and
+/// pi / spacing^2 neighbours of 12 bytes), its support index entries (at most 27 of 4 bytes) and
 /// solve vectors, and the band voxels beside it (index and value, 8 bytes each, at most 2 x 16
 /// of them, a band being at most `first_radius` voxels of level 0 wide).
 const LEVELS_PER_POINT: u64 = 1050;
