@@ -4,7 +4,9 @@
 //! at the centre of its bounds. Issue target: under 50 ms for a 512 model.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use implicitize::{Field, MeshFitOptions, Model, ModelFormat, Resolution, pipeline};
+use implicitize::{
+    Field, grid::Resolution, model::Model, model::ModelFormat, pipeline, pipeline::MeshFitOptions,
+};
 
 fn load(c: &mut Criterion) {
     let triceratops = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/triceratops.obj");

@@ -16,7 +16,10 @@ use std::time::Instant;
 use criterion::{Criterion, criterion_group};
 use implicitize::grid::Values;
 use implicitize::polygonize::polygonize_field_dense;
-use implicitize::{DVec3, Field, Grid, Resolution, Volume, polygonize, polygonize_field};
+use implicitize::{
+    DVec3, Field, grid::Grid, grid::Resolution, grid::Volume, polygonize::polygonize,
+    polygonize::polygonize_field,
+};
 use implicitize_test_support::data::bunny;
 
 /// The bunny volume's size in the paper-scale runs.

@@ -12,7 +12,10 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use implicitize::rbf::Normalization;
 use implicitize::rbf::evaluate_on_grid;
-use implicitize::{Aabb, Constraint, DVec3, Grid, Implicit, Kernel, Resolution, Volume};
+use implicitize::{
+    Aabb, DVec3, grid::Grid, grid::Resolution, grid::Volume, rbf::Constraint, rbf::Implicit,
+    rbf::Kernel,
+};
 use implicitize_test_support::data::bunny;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use implicitize::render::{Camera, Coloring, March, Shading, render_field, render_mesh};
-use implicitize::{Aabb, Constraint, DVec3, Field, Implicit, Kernel, Mesh};
+use implicitize::{Aabb, DVec3, Field, mesh::Mesh, rbf::Constraint, rbf::Implicit, rbf::Kernel};
 
 /// A bumpy ball: `1 - |p|^2` plus a 500-term thin-plate sum `w r^2 ln r` around points on the
 /// unit sphere, so one value costs what a 500-constraint fitted implicit's does. Positive inside.

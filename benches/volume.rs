@@ -5,7 +5,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use implicitize::edt::{inside, signed_distance};
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
-use implicitize::{Grid, Resolution};
+use implicitize::{grid::Grid, grid::Resolution};
 use implicitize_test_support::data::triceratops;
 
 fn volume(c: &mut Criterion) {

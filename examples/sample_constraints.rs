@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail, ensure};
 use clap::Parser;
-use implicitize::{DVec3, Mesh, mesh, npy};
+use implicitize::{DVec3, mesh, mesh::Mesh, npy};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

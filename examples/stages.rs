@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use implicitize::rbf::{Constraint, Implicit, Kernel};
-use implicitize::{DVec3, Grid, Resolution, edt, mesh, polygonize, voxelize};
+use implicitize::{DVec3, edt, grid::Grid, grid::Resolution, mesh, polygonize, voxelize};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -65,7 +65,11 @@ fn main() -> anyhow::Result<()> {
 }
 
 /// `n` points spread uniformly over the surface by area, each with its face's unit normal.
-fn sample_surface(mesh: &implicitize::Mesh, n: usize, rng: &mut ChaCha8Rng) -> Vec<(DVec3, DVec3)> {
+fn sample_surface(
+    mesh: &implicitize::mesh::Mesh,
+    n: usize,
+    rng: &mut ChaCha8Rng,
+) -> Vec<(DVec3, DVec3)> {
     let mut cumulative = Vec::with_capacity(mesh.triangles.len());
     let mut total = 0.0;
     for t in 0..mesh.triangles.len() {

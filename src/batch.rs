@@ -521,7 +521,7 @@ mod tests {
         let first = Origin::of(&mesh, &options).unwrap();
         assert_eq!(Origin::of(&mesh, &options).unwrap(), first);
         let mut finer = options.clone();
-        finer.fit.resolution = crate::Resolution::LongestAxis(300);
+        finer.fit.resolution = crate::grid::Resolution::LongestAxis(300);
         assert_ne!(Origin::of(&mesh, &finer).unwrap().options, first.options);
         assert!(first.options.get("samples").is_none(), "no samples, no entry: older origins hold");
         let mut sampled = options.clone();

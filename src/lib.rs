@@ -8,11 +8,14 @@
 //! evaluate it, polygonize it, render, combine and morph it.
 //!
 //! ## Quick start
-//! One call fits a mesh ([`fit_mesh`], or [`fit_file`] from a path; [`pipeline::fit`] also
+//! One call fits a mesh ([`pipeline::fit_mesh`], or [`pipeline::fit_file`] from a path; [`pipeline::fit`] also
 //! writes the model, report and surface files); the model is a [`Field`]:
 //!
 //! ```
-//! use implicitize::{DVec3, Field, MeshFitOptions, Resolution, fit_mesh, mesh, polygonize_field};
+//! use implicitize::grid::Resolution;
+//! use implicitize::pipeline::{MeshFitOptions, fit_mesh};
+//! use implicitize::polygonize::polygonize_field;
+//! use implicitize::{DVec3, Field, mesh};
 //!
 //! # fn main() -> implicitize::Result<()> {
 //! // A mesh from a file (OBJ, PLY, STL or OFF); here the repository's triceratops.
@@ -132,11 +135,3 @@ mod tests;
 pub use error::{Error, FrontEnd, Location, Result, worded};
 pub use field::Field;
 pub use geometry::{Aabb, DVec3};
-pub use grid::{Grid, Resolution, Volume};
-pub use mesh::Mesh;
-pub use model::{Model, ModelFormat};
-pub use pipeline::settings;
-pub use pipeline::{Fitted, MeshFitOptions, fit_file, fit_mesh};
-pub use polygonize::{polygonize, polygonize_field};
-pub use rbf::{Constraint, ConstraintKind, Implicit, Kernel};
-pub use shape::csg;

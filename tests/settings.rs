@@ -1,4 +1,4 @@
-//! The fit's settings by their user-facing names (`implicitize::settings`): the struct and its
+//! The fit's settings by their user-facing names (`implicitize::pipeline::settings`): the struct and its
 //! table agree, each setting reaches the library's options, a settings file is read through
 //! the same struct, values read by each setting's kind become it, and the docs' table and
 //! Python's stub are made from the table.
@@ -6,9 +6,9 @@
 use std::path::Path;
 
 use implicitize::memory::MemoryLimit;
+use implicitize::pipeline::settings::{FitSettings, Kind, fit_settings, from_values};
 use implicitize::pipeline::{MeshFitOptions, Method};
-use implicitize::settings::{FitSettings, Kind, fit_settings, from_values};
-use implicitize::{Error, Resolution};
+use implicitize::{Error, grid::Resolution};
 use serde_json::json;
 
 /// The table lists the struct's fields, in its order: a field added to one is added to both.

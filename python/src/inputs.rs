@@ -4,9 +4,9 @@
 use std::path::PathBuf;
 
 use implicitize::memory::{self, MemoryLimit};
+use implicitize::pipeline::settings::{Kind, Setting};
 use implicitize::pipeline::{MeshFitOptions, MeshSource};
-use implicitize::settings::{Kind, Setting};
-use implicitize::{DVec3, Mesh, Resolution, mesh};
+use implicitize::{DVec3, grid::Resolution, mesh, mesh::Mesh};
 use numpy::{PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
@@ -191,7 +191,7 @@ pub fn fit_options(
     settings: Option<&Bound<'_, PyDict>>,
     memory: Option<MemoryArg>,
 ) -> PyResult<MeshFitOptions> {
-    let table = implicitize::settings::fit_settings();
+    let table = implicitize::pipeline::settings::fit_settings();
     let mut values = serde_json::Map::new();
     for (key, value) in settings.into_iter().flat_map(|d| d.iter()) {
         let name: String = key.extract()?;
@@ -204,7 +204,8 @@ pub fn fit_options(
             values.insert(name, setting_value(setting, &value)?);
         }
     }
-    let settings = implicitize::settings::from_values(values, "options").map_err(to_py)?;
+    let settings =
+        implicitize::pipeline::settings::from_values(values, "options").map_err(to_py)?;
     settings.options("options", memory_limit(memory)?).map_err(to_py)
 }
 

@@ -7,10 +7,10 @@
 //! heavy work (reading meshes, voxelizing, measuring distances, sampling, fitting, evaluating,
 //! polygonizing, rendering) runs with the GIL released, so Python threads run it in parallel.
 
-use implicitize::Resolution;
 use implicitize::fit::FitOptions;
+use implicitize::grid::Resolution;
+use implicitize::pipeline::settings::Kind;
 use implicitize::pipeline::{Method, SampleOptions};
-use implicitize::settings::Kind;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -74,13 +74,13 @@ fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(defaults)
 }
 
-/// Every setting of a fit (`implicitize::settings::fit_settings`), as dicts: its name (the
+/// Every setting of a fit (`implicitize::pipeline::settings::fit_settings`), as dicts: its name (the
 /// keyword), kind (`count`, `number`, `counts3`, `switch`, `choice` with its `choices`,
 /// `text`), value name, unit, default as text (`None` where nothing given means something
 /// else), the setting it excludes, and its help.
 #[pyfunction]
 fn fit_settings(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
-    implicitize::settings::fit_settings()
+    implicitize::pipeline::settings::fit_settings()
         .into_iter()
         .map(|setting| {
             let dict = PyDict::new(py);

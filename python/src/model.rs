@@ -4,12 +4,12 @@
 
 use std::path::{Path, PathBuf};
 
-use implicitize::csg::{Child, Composite, Operation};
 use implicitize::fit::IterationReport;
 use implicitize::pipeline::{self, FitObserver, FitOutputs, PolygonizeOptions};
 use implicitize::render::{Camera, Coloring, March, march_bounds, render_field};
 use implicitize::shape::Shape;
-use implicitize::{DVec3, Field, Implicit, Model};
+use implicitize::shape::csg::{Child, Composite, Operation};
+use implicitize::{DVec3, Field, model::Model, rbf::Implicit};
 use numpy::ndarray::{Array1, Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
@@ -261,7 +261,7 @@ impl FitObserver for Progress {
 }
 
 /// Fits `mesh` (paper 5, or 3.2 with method "naive") as `implicitize fit` does, with the
-/// fit's settings as keywords (`implicitize::settings::fit_settings`; a `None` is the
+/// fit's settings as keywords (`implicitize::pipeline::settings::fit_settings`; a `None` is the
 /// library's default).
 #[pyfunction]
 #[pyo3(signature = (mesh, progress=false, memory_limit=None, **settings))]

@@ -12,7 +12,7 @@
 //! | many meshes into one folder | [`crate::batch::BatchOptions`] | [`crate::batch::run`] |
 //!
 //! A fit's settings as users give them, by name, and their conversion into [`MeshFitOptions`]
-//! are [`settings`] (also `implicitize::settings`).
+//! are [`settings`].
 //!
 //! The options are `#[non_exhaustive]`: made with `Default::default()` and changed field by
 //! field, so a new setting breaks no caller. Each job checks its options and its memory

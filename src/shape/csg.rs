@@ -13,7 +13,7 @@
 //!
 //! and more than two children fold left to right (`a - b - c` for a difference). A
 //! [`Composite`] is such a tree of shapes and operators; it is a [`Field`] like any model, and
-//! [`crate::Model`] holds one as [`Shape::Csg`], so `eval`, `mesh` and rendering read it like a
+//! [`crate::model::Model`] holds one as [`Shape::Csg`], so `eval`, `mesh` and rendering read it like a
 //! fitted model. Each child is a [`Shape`] with its bounds, so trees nest.
 //!
 //! ## Comparable scales
@@ -118,7 +118,7 @@ pub struct Child {
 
 impl Child {
     /// `shape`, whose inside lies in `bounds`, divided by its [`Shape::distance_scale`]. A
-    /// [`crate::Model`] converts into a child with `Child::from(model)`.
+    /// [`crate::model::Model`] converts into a child with `Child::from(model)`.
     pub fn new(shape: Shape, bounds: Aabb) -> Child {
         let scale = shape.distance_scale();
         Child { shape, bounds, scale }

@@ -1,7 +1,7 @@
 //! The shapes a model can hold: a variational implicit function, one with detail levels, or a
 //! CSG tree of shapes.
 //!
-//! This is the one place that lists them. A [`crate::Model`] holds a shape with its bounds,
+//! This is the one place that lists them. A [`crate::model::Model`] holds a shape with its bounds,
 //! fit grid and report; a CSG child ([`csg::Child`]) holds a shape with its bounds and
 //! distance scale, so trees nest. Every shape is a [`Field`]: positive inside, negative
 //! outside, in the mesh's units.

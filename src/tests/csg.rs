@@ -4,10 +4,10 @@
 use crate::tests::support::models::{ball, disc_2d};
 use crate::tests::support::points::random_points;
 use crate::tests::support::topology;
-use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::shape::Shape;
-use implicitize::{Aabb, DVec3, Field, Grid, Resolution, polygonize};
+use implicitize::shape::csg::{Child, Composite, Operation};
+use implicitize::{Aabb, DVec3, Field, grid::Grid, grid::Resolution, polygonize};
 
 fn two_balls() -> (Model, Model) {
     (ball(DVec3::ZERO, 1.0, 1.0), ball(DVec3::new(1.1, 0.3, -0.2), 0.7, 3.0))

@@ -5,7 +5,7 @@ use implicitize::edt::{
     boundary_voxels, gradient, inside, sample, signed_distance, signed_distance_within,
     surface_point,
 };
-use implicitize::{DVec3, Grid, Volume};
+use implicitize::{DVec3, grid::Grid, grid::Volume};
 use proptest::prelude::*;
 
 fn grid(dims: [usize; 3]) -> Grid {

@@ -10,7 +10,7 @@ use implicitize::memory::{Estimate, MemoryLimit};
 use implicitize::mesh::Mesh;
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, VolumeKind, VolumeOptions};
-use implicitize::{DVec3, Error, Resolution};
+use implicitize::{DVec3, Error, grid::Resolution};
 
 fn options(resolution: usize, band: Option<f64>) -> VolumeOptions {
     let mut options = VolumeOptions::default();

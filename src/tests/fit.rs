@@ -5,7 +5,7 @@ use crate::tests::support::meshes::{max_vertex_distance, point_triangle_distance
 use implicitize::fit::{ErrorMeasure, FitOptions, Goal, Termination};
 use implicitize::pipeline::{self, Fitted, MeshFitOptions, Method};
 use implicitize::rbf::SinglePrecision;
-use implicitize::{DVec3, Field, Grid, Mesh, Resolution, polygonize, voxelize};
+use implicitize::{DVec3, Field, grid::Grid, grid::Resolution, mesh::Mesh, polygonize, voxelize};
 
 /// Fits `mesh` at `resolution` with `options`, through the front door.
 fn fit_mesh(mesh: &Mesh, resolution: usize, options: &FitOptions) -> Fitted {

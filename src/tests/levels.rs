@@ -13,7 +13,7 @@ use implicitize::pipeline::{self, Fitted, MeshFitOptions};
 use implicitize::rbf::MultiScale;
 use implicitize::shader::{self, Language};
 use implicitize::shape::Shape;
-use implicitize::{Field, Mesh, Model, Resolution, polygonize};
+use implicitize::{Field, grid::Resolution, mesh::Mesh, model::Model, polygonize};
 
 /// The target, in voxels of the 128 grid.
 const TARGET: f32 = 1.0;

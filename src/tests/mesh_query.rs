@@ -8,7 +8,7 @@ use crate::tests::support::points::random_points;
 use implicitize::mesh::Mesh;
 use implicitize::mesh_query::{MeshQuery, Nearest};
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
-use implicitize::{Aabb, DVec3, Grid, Resolution};
+use implicitize::{Aabb, DVec3, grid::Grid, grid::Resolution};
 use proptest::prelude::*;
 
 /// The distance from `p` to the segment `ab`.

@@ -6,7 +6,7 @@ use implicitize::edt::{boundary_voxels, inside, signed_distance};
 use implicitize::metrics::{
     BoundaryErrors, ErrorMetrics, RegularityOptions, SubVoxel, radii_of_regularity,
 };
-use implicitize::{DVec3, Grid, Volume};
+use implicitize::{DVec3, grid::Grid, grid::Volume};
 
 /// A grid of unit voxels, voxel (i, j, k) centred at (i, j, k).
 fn unit_grid(dims: [usize; 3]) -> Grid {

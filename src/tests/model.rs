@@ -2,7 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
-use implicitize::{Aabb, Constraint, DVec3, Field, Grid, Implicit, Kernel, Model};
+use implicitize::{
+    Aabb, DVec3, Field, grid::Grid, model::Model, rbf::Constraint, rbf::Implicit, rbf::Kernel,
+};
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -204,7 +206,7 @@ fn binary_files_round_trip_bit_for_bit_whatever_their_name() {
         }
         // `save_as` writes either format under any name.
         let json_named_imp = dir.path().join("json.imp");
-        model.save_as(&json_named_imp, implicitize::ModelFormat::Json).unwrap();
+        model.save_as(&json_named_imp, implicitize::model::ModelFormat::Json).unwrap();
         assert_eq!(std::fs::read(&json_named_imp).unwrap()[0], b'{');
         assert!(Model::load(&json_named_imp).is_ok());
     }

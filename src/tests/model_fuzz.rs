@@ -8,9 +8,11 @@ use std::sync::LazyLock;
 
 use crate::tests::support::data::triceratops;
 use crate::tests::support::shells::open_hemisphere;
-use implicitize::csg::{Child, Composite, Operation};
+use implicitize::shape::csg::{Child, Composite, Operation};
 use implicitize::voxelize::shell::Shell;
-use implicitize::{DVec3, Field, MeshFitOptions, Model, Resolution, pipeline};
+use implicitize::{
+    DVec3, Field, grid::Resolution, model::Model, pipeline, pipeline::MeshFitOptions,
+};
 use proptest::prelude::*;
 
 /// Valid binary files: a thin-plate model on its lattice, a model with detail levels (a

@@ -4,18 +4,21 @@ use std::sync::OnceLock;
 
 use crate::tests::support::meshes::{sphere, torus};
 use crate::tests::support::topology;
-use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions, Similarity};
 use implicitize::rbf::{Constraint, Implicit, Kernel};
-use implicitize::{Aabb, DVec3, Field, Grid, Mesh, MeshFitOptions, Resolution, polygonize};
+use implicitize::shape::csg::{Child, Composite, Operation};
+use implicitize::{
+    Aabb, DVec3, Field, grid::Grid, grid::Resolution, mesh::Mesh, pipeline::MeshFitOptions,
+    polygonize,
+};
 
 /// Fits `mesh` at a small resolution.
 fn fitted(mesh: &Mesh) -> Model {
     let mut options = MeshFitOptions::default();
     options.resolution = Resolution::LongestAxis(40);
     options.fit.max_iterations = 12;
-    implicitize::fit_mesh(mesh, &options).unwrap().model
+    implicitize::pipeline::fit_mesh(mesh, &options).unwrap().model
 }
 
 /// A sphere of radius 1.5 and a torus of radii 2 and 0.7 around z, both at the origin, fitted

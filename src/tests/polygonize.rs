@@ -6,7 +6,10 @@ use std::collections::HashMap;
 use crate::tests::support::data::bunny;
 use crate::tests::support::topology::{components, euler_characteristic};
 use implicitize::polygonize::polygonize_field_dense;
-use implicitize::{DVec3, Field, Grid, Mesh, Resolution, Volume, polygonize, polygonize_field};
+use implicitize::{
+    DVec3, Field, grid::Grid, grid::Resolution, grid::Volume, mesh::Mesh, polygonize::polygonize,
+    polygonize::polygonize_field,
+};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

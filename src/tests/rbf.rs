@@ -5,7 +5,8 @@ use std::path::Path;
 
 use implicitize::rbf::{self, evaluate_on_grid, read_constraints};
 use implicitize::{
-    Aabb, Constraint, ConstraintKind, DVec3, Field, Grid, Implicit, Kernel, Resolution, Volume,
+    Aabb, DVec3, Field, grid::Grid, grid::Resolution, grid::Volume, rbf::Constraint,
+    rbf::ConstraintKind, rbf::Implicit, rbf::Kernel,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -7,7 +7,7 @@ use std::f64::consts::{PI, TAU};
 use implicitize::render::{
     Camera, Coloring, Image, March, Shading, render_field, render_mesh, render_mesh_scalars,
 };
-use implicitize::{Aabb, DVec3, Field, Mesh};
+use implicitize::{Aabb, DVec3, Field, mesh::Mesh};
 
 /// A ball, positive inside.
 struct Ball {

@@ -7,7 +7,7 @@ use implicitize::memory::MemoryLimit;
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, SampleOptions};
 use implicitize::sample::{self, Samples};
-use implicitize::{DVec3, Error, Mesh};
+use implicitize::{DVec3, Error, mesh::Mesh};
 
 fn options(near_surface: &[f64], uniform: f64, seed: u64) -> SampleOptions {
     let mut options = SampleOptions::default();

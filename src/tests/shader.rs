@@ -5,11 +5,11 @@
 
 use crate::tests::support::models::{ball, disc_2d, sphere_directions};
 use crate::tests::support::wgsl;
-use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::rbf::{Constraint, Implicit, Kernel};
 use implicitize::shader::{Language, source, texture_source};
 use implicitize::shape::Shape;
+use implicitize::shape::csg::{Child, Composite, Operation};
 use implicitize::{Aabb, DVec3};
 
 /// A unit ball at `center` solved with `kernel`.

@@ -6,7 +6,7 @@ use crate::tests::support::meshes::{merge, sphere};
 use implicitize::DVec3;
 use implicitize::fit::FitOptions;
 use implicitize::pipeline::{self, Fitted, MeshFitOptions};
-use implicitize::{Field, Mesh, Resolution};
+use implicitize::{Field, grid::Resolution, mesh::Mesh};
 
 /// The grid's longest axis, in voxels.
 const RESOLUTION: usize = 128;

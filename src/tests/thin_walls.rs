@@ -11,7 +11,7 @@ use implicitize::fit::Thickness;
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, MeshFitOptions, MeshSource, Prepared};
 use implicitize::voxelize::shell::Shell;
-use implicitize::{DVec3, Error, Mesh, Resolution};
+use implicitize::{DVec3, Error, grid::Resolution, mesh::Mesh};
 
 /// The grid of the tests: small, so that each fit takes a second or two.
 const RESOLUTION: usize = 48;
@@ -189,7 +189,7 @@ fn a_shell_goal_is_the_thickened_surface() {
     options.shell = Some(Shell::Voxels(2.0));
     let prepared = Prepared::new(&hemisphere, "hemisphere.obj", &options).unwrap();
     let h = prepared.grid().voxel_size;
-    let thickened = implicitize::polygonize(prepared.goal().density(), 0.5);
+    let thickened = implicitize::polygonize::polygonize(prepared.goal().density(), 0.5);
     assert!(thickened.vertices.len() > 1000, "{} vertices", thickened.vertices.len());
     let query = MeshQuery::new(&hemisphere).unwrap();
     let worst = thickened

@@ -7,7 +7,7 @@ use crate::tests::support::data::triceratops;
 use crate::tests::support::meshes::{merge, torus};
 use implicitize::edt::inside;
 use implicitize::voxelize::{VoxelizeOptions, voxelize};
-use implicitize::{DVec3, Grid, Mesh, Resolution, Volume};
+use implicitize::{DVec3, grid::Grid, grid::Resolution, grid::Volume, mesh::Mesh};
 
 /// A sphere: an icosahedron subdivided `levels` times, outward facing.
 fn sphere(centre: DVec3, radius: f64, levels: usize) -> Mesh {

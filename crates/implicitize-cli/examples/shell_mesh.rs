@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use implicitize::{Resolution, mesh, pipeline};
+use implicitize::{grid::Resolution, mesh, pipeline};
 use implicitize_test_support::{hostile, shells};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -23,7 +23,7 @@
 use implicitize::fit::Goal;
 use implicitize::rbf::{self, Implicit};
 use implicitize::render::Image;
-use implicitize::{DVec3, Error, Field, Grid, Result, Volume, edt};
+use implicitize::{DVec3, Error, Field, Result, edt, grid::Grid, grid::Volume};
 
 /// The width of the grey bands between and around panels, in picture pixels.
 pub const GAP: usize = 6;

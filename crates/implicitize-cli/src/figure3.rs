@@ -11,8 +11,9 @@ use std::collections::HashMap;
 
 use implicitize::fit::Goal;
 use implicitize::fit::RegularityOptions;
+use implicitize::polygonize::polygonize;
 use implicitize::render::{Camera, Image, render_mesh_scalars};
-use implicitize::{DVec3, Mesh, Result, polygonize};
+use implicitize::{DVec3, Result, mesh::Mesh};
 
 /// How far, in voxels along each axis, the nearest boundary voxel is looked for. A goal
 /// surface vertex lies on the segment between an inside voxel with signed distance 1/2 (a

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use implicitize::Model;
+use implicitize::model::Model;
 use implicitize_test_support::data::triceratops;
 
 /// Kills per command.

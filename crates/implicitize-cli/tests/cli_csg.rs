@@ -4,8 +4,8 @@
 use std::path::Path;
 use std::process::Command;
 
-use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
+use implicitize::shape::csg::{Child, Composite, Operation};
 use implicitize::{DVec3, Field};
 use implicitize_test_support::models::{ball, disc_2d};
 use implicitize_test_support::topology;

@@ -286,7 +286,7 @@ fn fit_writes_binary_unless_the_name_or_the_format_says_json() {
     assert_eq!(json, std::fs::read(dir.path().join("t.model")).unwrap());
     // The two files hold the same function: equal values, bit for bit.
     let [a, b] =
-        ["t.imp", "t.json"].map(|n| implicitize::Model::load(&dir.path().join(n)).unwrap());
+        ["t.imp", "t.json"].map(|n| implicitize::model::Model::load(&dir.path().join(n)).unwrap());
     let bounds = a.bounds();
     let points: Vec<_> =
         (0..=20).map(|i| bounds.min + (bounds.max - bounds.min) * (f64::from(i) / 20.0)).collect();
@@ -328,8 +328,8 @@ fn every_consumer_reads_the_binary_model_as_it_reads_json() {
     let dir = tempfile::tempdir().unwrap();
     let (out, _) = fit_to(dir.path(), "t.imp", &["--resolution", "48"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let model = implicitize::Model::load(&dir.path().join("t.imp")).unwrap();
-    model.save_as(&dir.path().join("t.json"), implicitize::ModelFormat::Json).unwrap();
+    let model = implicitize::model::Model::load(&dir.path().join("t.imp")).unwrap();
+    model.save_as(&dir.path().join("t.json"), implicitize::model::ModelFormat::Json).unwrap();
     let points = dir.path().join("points.csv");
     std::fs::write(&points, "x,y,z\n0,0,0\n1,2,3\n-2,0.5,1\n").unwrap();
     let outputs = |stem: &str| -> String {

@@ -5,7 +5,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use implicitize::goal2d::{self, ImageOptions, Luminance};
-use implicitize::{DVec3, Field, Model};
+use implicitize::{DVec3, Field, model::Model};
 
 fn implicitize() -> Command {
     Command::new(env!("CARGO_BIN_EXE_implicitize"))

@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use implicitize::{DVec3, Mesh};
+use implicitize::{DVec3, mesh::Mesh};
 use implicitize_test_support::hostile;
 use implicitize_test_support::meshes::merge;
 

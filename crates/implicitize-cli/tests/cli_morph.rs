@@ -3,16 +3,16 @@
 use std::process::Command;
 
 use implicitize::model::Model;
-use implicitize::{DVec3, MeshFitOptions, Resolution};
+use implicitize::{DVec3, grid::Resolution, pipeline::MeshFitOptions};
 use implicitize_test_support::meshes::{sphere, torus};
 use implicitize_test_support::topology;
 
 /// Fits `mesh` at a small resolution.
-fn fitted(mesh: &implicitize::Mesh) -> Model {
+fn fitted(mesh: &implicitize::mesh::Mesh) -> Model {
     let mut options = MeshFitOptions::default();
     options.resolution = Resolution::LongestAxis(40);
     options.fit.max_iterations = 12;
-    implicitize::fit_mesh(mesh, &options).unwrap().model
+    implicitize::pipeline::fit_mesh(mesh, &options).unwrap().model
 }
 
 /// A sphere of radius 1.5 and a torus of radii 2 and 0.7 around z, both at the origin.

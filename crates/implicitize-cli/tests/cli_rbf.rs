@@ -60,7 +60,7 @@ fn solve_then_eval_matches_scipy_on_the_bunny() {
         text += &format!("{x},{y},{z}\n");
     }
     std::fs::write(&csv_points, text).unwrap();
-    let loaded = implicitize::Model::load(&model).unwrap();
+    let loaded = implicitize::model::Model::load(&model).unwrap();
     let direct = loaded
         .implicit()
         .unwrap()

@@ -1,10 +1,10 @@
 //! The fit's settings on the command line: every setting of the library's table
-//! (`implicitize::settings::fit_settings`) is a flag of `fit`, `demo` and `batch`, with the
+//! (`implicitize::pipeline::settings::fit_settings`) is a flag of `fit`, `demo` and `batch`, with the
 //! table's default but in the demo, and `--config` reads a settings file under the flags given.
 
 use std::process::Command;
 
-use implicitize::settings::fit_settings;
+use implicitize::pipeline::settings::fit_settings;
 use implicitize_test_support::data::triceratops;
 
 fn implicitize() -> Command {

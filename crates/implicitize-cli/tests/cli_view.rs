@@ -7,10 +7,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use implicitize::DVec3;
-use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
 use implicitize::rbf::DetailLevel;
 use implicitize::rbf::MultiScale;
+use implicitize::shape::csg::{Child, Composite, Operation};
 use implicitize_test_support::models::{ball, disc_2d, sphere_directions};
 use implicitize_test_support::wgsl;
 

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use std::sync::LazyLock;
 
 use implicitize::rbf::read_constraints;
-use implicitize::{Aabb, DVec3, Implicit, Kernel};
+use implicitize::{Aabb, DVec3, rbf::Implicit, rbf::Kernel};
 
 /// The repository's root directory: the nearest folder above the compiling package's that
 /// holds `data/triceratops.obj` (this source is compiled as the crate test-support and as a

@@ -3,7 +3,7 @@
 //! an open sheet and a car-body-like open shell. Used by the command's `tests/cli_hostile.rs`
 //! and by its example `hostile_mesh` (for `scripts/bench-hostile.sh`).
 
-use implicitize::{DVec3, Mesh};
+use implicitize::{DVec3, mesh::Mesh};
 
 use super::meshes::merge;
 

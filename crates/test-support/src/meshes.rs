@@ -1,6 +1,6 @@
 //! Meshes built from formulas, and distances between meshes.
 
-use implicitize::{DVec3, Mesh};
+use implicitize::{DVec3, mesh::Mesh};
 
 /// A closed torus around the z axis with major radius `major` and tube radius `minor`,
 /// triangulated with `segments` steps around the axis and `sides` around the tube, outward.

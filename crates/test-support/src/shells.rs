@@ -3,7 +3,7 @@
 //! hemisphere and two parallel sheets. Used by the thin-wall tests and by the command's example
 //! `shell_mesh` (for `scripts/bench-shell.sh`).
 
-use implicitize::{DVec3, Mesh};
+use implicitize::{DVec3, mesh::Mesh};
 
 use super::meshes::merge;
 

@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 
-use implicitize::Mesh;
+use implicitize::mesh::Mesh;
 
 /// Every edge is used by exactly two triangles, once in each direction.
 pub fn assert_closed(mesh: &Mesh, what: &str) {

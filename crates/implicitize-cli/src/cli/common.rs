@@ -6,7 +6,7 @@ use std::sync::OnceLock;
 
 use clap::Args;
 use implicitize::memory::{Estimate, MemoryLimit};
-use implicitize::{Mesh, Resolution, mesh, output};
+use implicitize::{grid::Resolution, mesh, mesh::Mesh, output};
 
 /// The size of the voxel grid placed around the mesh.
 #[derive(Debug, Args)]

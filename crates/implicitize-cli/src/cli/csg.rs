@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 
 use clap::{Args, ValueEnum};
-use implicitize::csg::{Child, Composite, Operation};
 use implicitize::model::Model;
+use implicitize::shape::csg::{Child, Composite, Operation};
 
 use super::common::{Progress, check_outputs};
 

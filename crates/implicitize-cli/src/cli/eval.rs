@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use super::common::{Progress, check_outputs};
 use clap::Args;
-use implicitize::{DVec3, Field, Model, npy, rbf};
+use implicitize::{DVec3, Field, model::Model, npy, rbf};
 
 /// Arguments of `eval`.
 #[derive(Debug, Args)]

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use implicitize::fit::{ErrorMeasure, FitOptions, IterationReport};
+use implicitize::pipeline::settings::{FitSettings, fit_settings};
 use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
-use implicitize::settings::{FitSettings, fit_settings};
-use implicitize::{Implicit, ModelFormat, mesh, output};
+use implicitize::{mesh, model::ModelFormat, output, rbf::Implicit};
 
 use super::common::{Progress, memory_limit, read_mesh, warn};
 use super::render::{Snapshots, compare_picture};

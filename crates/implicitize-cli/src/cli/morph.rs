@@ -8,7 +8,7 @@ use implicitize::memory::Estimate;
 use implicitize::model::Model;
 use implicitize::morph::{self, Method, Morph, MorphOptions};
 use implicitize::render::{self, Camera, Coloring, Image, March};
-use implicitize::{Grid, Resolution, mesh, output, polygonize};
+use implicitize::{grid::Grid, grid::Resolution, mesh, output, polygonize};
 
 use super::common::{Progress, check_memory};
 

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 use implicitize::model::Model;
 use implicitize::pipeline::{self, PolygonizeOptions};
-use implicitize::{Resolution, mesh};
+use implicitize::{grid::Resolution, mesh};
 
 use super::common::{Progress, check_outputs, memory_limit};
 

@@ -19,7 +19,7 @@ use implicitize::pipeline::{MeshFitOptions, Prepared};
 use implicitize::render::{
     Camera, Coloring, Image, March, Shading, grid_box, march_bounds, render_field, render_mesh,
 };
-use implicitize::{Aabb, Field, Grid, Mesh};
+use implicitize::{Aabb, Field, grid::Grid, mesh::Mesh};
 
 use super::common::{GridArgs, Progress, check_outputs, memory_limit, read_mesh};
 use crate::figure3::figure3;

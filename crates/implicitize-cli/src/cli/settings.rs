@@ -1,12 +1,12 @@
 //! The fit's settings as flags, made from the library's table
-//! (`implicitize::settings::fit_settings`): each setting's flag, value, help and default come
+//! (`implicitize::pipeline::settings::fit_settings`): each setting's flag, value, help and default come
 //! from there, and the values given are read into `FitSettings` by name, so that a setting
 //! added to the library is a flag of `fit`, `demo` and `batch` without a line here.
 
 use clap::error::ErrorKind;
 use clap::parser::ValueSource;
 use clap::{Arg, ArgAction, ArgMatches, Args, Command, FromArgMatches};
-use implicitize::settings::{FitSettings, Kind, Setting, fit_settings, from_values};
+use implicitize::pipeline::settings::{FitSettings, Kind, Setting, fit_settings, from_values};
 use serde_json::{Map, Value};
 
 /// The fit's settings as the command line gave them.

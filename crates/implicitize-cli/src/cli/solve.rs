@@ -7,7 +7,7 @@ use super::common::{Progress, check_outputs};
 use anyhow::Context;
 use clap::Args;
 use implicitize::rbf::read_constraints;
-use implicitize::{Aabb, DVec3, Implicit, Kernel, Model};
+use implicitize::{Aabb, DVec3, model::Model, rbf::Implicit, rbf::Kernel};
 
 /// Arguments of `solve`.
 #[derive(Debug, Args)]

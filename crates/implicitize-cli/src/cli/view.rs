@@ -19,7 +19,7 @@ use implicitize::bound::block_uppers;
 use implicitize::model::Model;
 use implicitize::render::{Camera, LatticeGeometry, March, march_bounds};
 use implicitize::shape::Shape;
-use implicitize::{Aabb, Mesh, output, shader};
+use implicitize::{Aabb, mesh::Mesh, output, shader};
 use serde_json::{Value, json};
 
 use super::common::{Progress, check_outputs, read_mesh};
