@@ -2,12 +2,12 @@
 //! volume written into one folder, and a manifest of the outcomes, as `implicitize batch` and
 //! the Python package's `python -m implicitize.batch` (on Dask) run it.
 //!
-//! The work is split so that any scheduler can drive it: [`collect_inputs`] expands the
-//! command line (mesh files, folders searched for mesh files, `@list.txt` files), [`plan`]
-//! names each mesh's outputs, [`convert`] converts one mesh and never fails (a failure is an
+//! The work is split so that any scheduler can drive it: [`plan`] expands the command line
+//! (mesh files, folders searched for mesh files, `@list.txt` files) into [`Job`]s and names
+//! each mesh's outputs, [`Job::convert`] converts one mesh and never fails (a failure is an
 //! [`Entry`] with status `failed` and the error's message), [`run`] converts them all in
-//! parallel on rayon, and [`write_manifest`] writes `manifest.jsonl`, one line per mesh in
-//! input order.
+//! parallel on rayon, and [`finish`] writes `manifest.jsonl`, one line per mesh in input order,
+//! and returns the batch's quality summary.
 //!
 //! # Files
 //! For a mesh named `NAME` (its file's stem; `NAME-2`, `NAME-3`... for later meshes of the
@@ -171,6 +171,17 @@ pub struct Entry {
     pub reused: bool,
 }
 
+/// The jobs of a batch: the mesh files `inputs` name (files, folders searched for mesh files,
+/// `@LIST` files of one path a line; in order, without repeats, a missing file kept so that
+/// its conversion says so), each with the name of its outputs: its file's stem, or the stem
+/// and `-2`, `-3`... where a stem is met again.
+///
+/// # Errors
+/// A list or folder that cannot be read.
+pub fn plan(inputs: &[String]) -> Result<Vec<Job>> {
+    Ok(name_jobs(&collect_inputs(inputs)?))
+}
+
 /// The mesh files `inputs` name, in order and without repeats: files as they are, folders
 /// searched (recursively, in name order) for files with an extension of a mesh (obj, ply, stl or off), and
 /// `@LIST` files read for one path a line (relative to the list's folder; blank lines and
@@ -179,7 +190,7 @@ pub struct Entry {
 ///
 /// # Errors
 /// A list or folder that cannot be read.
-pub fn collect_inputs(inputs: &[String]) -> Result<Vec<PathBuf>> {
+fn collect_inputs(inputs: &[String]) -> Result<Vec<PathBuf>> {
     let mut found = Vec::new();
     for input in inputs {
         match input.strip_prefix('@') {
@@ -228,7 +239,7 @@ fn is_mesh_file(path: &Path) -> bool {
 }
 
 /// Names each input's outputs after its file's stem; a stem met again gets `-2`, `-3`...
-pub fn plan(inputs: &[PathBuf]) -> Vec<Job> {
+fn name_jobs(inputs: &[PathBuf]) -> Vec<Job> {
     let mut taken: HashMap<String, usize> = HashMap::new();
     inputs
         .iter()
@@ -288,11 +299,23 @@ impl Outputs {
     }
 }
 
-/// Converts one mesh into `out` (which must exist), or takes its complete outputs from an
-/// earlier run made from the same input and options. Never fails: a failure is an entry with
-/// its message, and a panic (which no input should cause) is caught and reported as one, with
-/// its message.
-pub fn convert(job: &Job, out: &Path, options: &BatchOptions) -> Entry {
+impl Job {
+    /// Converts the job's mesh into `out` (which must exist), or takes its complete outputs
+    /// from an earlier run made from the same input and options. Never fails: a failure is an
+    /// entry with its message, and a panic (which no input should cause) is caught and
+    /// reported as one, with its message.
+    pub fn convert(&self, out: &Path, options: &BatchOptions) -> Entry {
+        convert(self, out, options)
+    }
+
+    /// The entry of the job when its conversion failed (or never finished) with `error`.
+    pub fn failed(&self, error: String) -> Entry {
+        failed_entry(self, error, None, 0.0)
+    }
+}
+
+/// [`Job::convert`].
+fn convert(job: &Job, out: &Path, options: &BatchOptions) -> Entry {
     let clock = Instant::now();
     let origin = match Origin::of(&job.input, options) {
         Ok(origin) => origin,
@@ -398,7 +421,7 @@ impl Entry {
 }
 
 /// The entry of a failed conversion, with what was tried when known.
-pub fn failed_entry(job: &Job, error: String, origin: Option<Origin>, seconds: f64) -> Entry {
+fn failed_entry(job: &Job, error: String, origin: Option<Origin>, seconds: f64) -> Entry {
     Entry {
         input: job.input.display().to_string(),
         name: job.name.clone(),
@@ -456,10 +479,20 @@ pub fn run(
 /// The meshes a batch's summary names, at most.
 pub(crate) const WORST_SHOWN: usize = 5;
 
-/// A batch's quality summary, one line each: how many fits ended above their target, and the
+/// Ends a batch: writes `out/`[`MANIFEST`] (one JSON line per entry, in order) and returns the
+/// batch's quality summary, one line each: how many fits ended above their target, and the
 /// `WORST_SHOWN` models farthest from their meshes ([`Entry::worst_p999`]), worst first, with
-/// their E and why they stopped. Empty when no mesh was fitted.
-pub fn summary(entries: &[Entry]) -> Vec<String> {
+/// their E and why they stopped (no line when no mesh was fitted).
+///
+/// # Errors
+/// The manifest cannot be written.
+pub fn finish(out: &Path, entries: &[Entry]) -> Result<Vec<String>> {
+    write_manifest(out, entries)?;
+    Ok(summary(entries))
+}
+
+/// The quality summary of [`finish`].
+fn summary(entries: &[Entry]) -> Vec<String> {
     let mut fitted: Vec<(&Entry, f64)> =
         entries.iter().filter_map(|e| Some((e, e.worst_p999()?))).collect();
     if fitted.is_empty() {
@@ -488,10 +521,7 @@ pub fn summary(entries: &[Entry]) -> Vec<String> {
 }
 
 /// Writes `out/manifest.jsonl`: one JSON line per entry, in order.
-///
-/// # Errors
-/// The file cannot be written.
-pub fn write_manifest(out: &Path, entries: &[Entry]) -> Result<()> {
+fn write_manifest(out: &Path, entries: &[Entry]) -> Result<()> {
     let text: String = entries
         .iter()
         .map(|e| serde_json::to_string(e).expect("an entry always serializes") + "\n")

@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use implicitize::memory::MemoryLimit;
-use implicitize::pipeline::settings::{FitSettings, Kind, fit_settings, from_values};
+use implicitize::pipeline::settings::{FitSettings, Kind};
 use implicitize::pipeline::{MeshFitOptions, Method};
 use implicitize::{Error, grid::Resolution};
 use serde_json::json;
@@ -16,12 +16,12 @@ use serde_json::json;
 fn the_table_lists_every_field_of_the_settings() {
     let json = serde_json::to_value(FitSettings::default()).unwrap();
     let fields: Vec<&str> = json.as_object().unwrap().keys().map(String::as_str).collect();
-    let mut names: Vec<&str> = fit_settings().iter().map(|s| s.name).collect();
+    let mut names: Vec<&str> = FitSettings::table().iter().map(|s| s.name).collect();
     let mut sorted = fields.clone();
     sorted.sort_unstable();
     names.sort_unstable();
     assert_eq!(sorted, names);
-    for setting in fit_settings() {
+    for setting in FitSettings::table() {
         assert!(!setting.help.is_empty() && !setting.unit.is_empty(), "{setting:?}");
     }
 }
@@ -145,24 +145,25 @@ fn values_of_each_kind_become_the_settings() {
         }
     };
     let unset = serde_json::to_value(FitSettings::default()).unwrap();
-    for setting in fit_settings() {
+    for setting in FitSettings::table() {
         let value = sample(setting.kind);
         let values = serde_json::Map::from_iter([(setting.name.to_string(), value.clone())]);
-        let settings = from_values(values, "options").unwrap_or_else(|e| panic!("{e}"));
+        let settings =
+            FitSettings::from_values(values, "options").unwrap_or_else(|e| panic!("{e}"));
         let read = &serde_json::to_value(&settings).unwrap()[setting.name];
         assert!(read != &unset[setting.name], "{}: {read}", setting.name);
         assert_eq!(read, &value, "{}", setting.name);
     }
     let shell = serde_json::Map::from_iter([("shell".to_string(), json!(2))]);
-    assert_eq!(from_values(shell, "options").unwrap().shell.as_deref(), Some("2"));
+    assert_eq!(FitSettings::from_values(shell, "options").unwrap().shell.as_deref(), Some("2"));
     let unknown = serde_json::Map::from_iter([("resolutoin".to_string(), json!(3))]);
-    let e = from_values(unknown, "options").unwrap_err().to_string();
+    let e = FitSettings::from_values(unknown, "options").unwrap_err().to_string();
     assert!(e.contains("`resolutoin` is not a fit setting"), "{e}");
     let negative = serde_json::Map::from_iter([("levels".to_string(), json!(-1))]);
-    let e = from_values(negative, "options").unwrap_err().to_string();
+    let e = FitSettings::from_values(negative, "options").unwrap_err().to_string();
     assert!(e.contains("`levels` takes a whole number of 0 or more, not -1"), "{e}");
     let null = serde_json::Map::from_iter([("seed".to_string(), serde_json::Value::Null)]);
-    assert_eq!(from_values(null, "options").unwrap(), FitSettings::default());
+    assert_eq!(FitSettings::from_values(null, "options").unwrap(), FitSettings::default());
 }
 
 /// The table of the fit's settings in docs/cli.md is the one the library's table makes, and
@@ -192,7 +193,7 @@ fn docs_table() -> String {
         "| flag (Python keyword, settings-file key) | value | default | what it does |\n\
          |---|---|---|---|\n",
     );
-    for setting in fit_settings() {
+    for setting in FitSettings::table() {
         let flag = match setting.value_name {
             "" => setting.flag(),
             value => format!("{} {value}", setting.flag()),
@@ -210,7 +211,7 @@ fn docs_table() -> String {
 /// its kind reads.
 fn python_stub() -> String {
     let mut stub = String::from("def fit(\n    mesh: Any,\n    *,\n");
-    for setting in fit_settings() {
+    for setting in FitSettings::table() {
         let typed = match setting.kind {
             Kind::Count => "Optional[int] = None",
             Kind::Number => "Optional[float] = None",

@@ -15,8 +15,7 @@ use crate::inputs::{MemoryArg, fit_options};
 /// outputs: `[(input, name), ...]` in order.
 #[pyfunction]
 pub fn batch_plan(inputs: Vec<String>) -> PyResult<Vec<(String, String)>> {
-    let files = batch::collect_inputs(&inputs).map_err(to_py)?;
-    let jobs = batch::plan(&files);
+    let jobs = batch::plan(&inputs).map_err(to_py)?;
     Ok(jobs.into_iter().map(|j| (j.input.display().to_string(), j.name)).collect())
 }
 
@@ -56,10 +55,8 @@ pub fn batch_convert(
     let job = Job { input, name };
     let entry = py.detach(|| {
         std::fs::create_dir_all(&out_dir)
-            .map(|()| batch::convert(&job, &out_dir, &options))
-            .unwrap_or_else(|e| {
-                batch::failed_entry(&job, format!("{}: {e}", out_dir.display()), None, 0.0)
-            })
+            .map(|()| job.convert(&out_dir, &options))
+            .unwrap_or_else(|e| job.failed(format!("{}: {e}", out_dir.display())))
     });
     line(&entry)
 }
@@ -67,19 +64,18 @@ pub fn batch_convert(
 /// The manifest line of a mesh whose conversion never finished (its workers kept dying).
 #[pyfunction]
 pub fn batch_failed(input: PathBuf, name: String, error: String) -> PyResult<String> {
-    line(&batch::failed_entry(&Job { input, name }, error, None, 0.0))
+    line(&Job { input, name }.failed(error))
 }
 
 /// Writes `out_dir/manifest.jsonl` from the lines, in order (atomically); returns the batch's
-/// quality summary (`implicitize::batch::summary`), one line each.
+/// quality summary (`implicitize::batch::finish`), one line each.
 #[pyfunction]
 pub fn batch_manifest(out_dir: PathBuf, lines: Vec<String>) -> PyResult<Vec<String>> {
     let entries = lines
         .iter()
         .map(|l| serde_json::from_str::<Entry>(l).map_err(|e| invalid(format!("{l}: {e}"))))
         .collect::<PyResult<Vec<_>>>()?;
-    batch::write_manifest(Path::new(&out_dir), &entries).map_err(to_py)?;
-    Ok(batch::summary(&entries))
+    batch::finish(Path::new(&out_dir), &entries).map_err(to_py)
 }
 
 fn line(entry: &Entry) -> PyResult<String> {

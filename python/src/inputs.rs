@@ -191,7 +191,7 @@ pub fn fit_options(
     settings: Option<&Bound<'_, PyDict>>,
     memory: Option<MemoryArg>,
 ) -> PyResult<MeshFitOptions> {
-    let table = implicitize::pipeline::settings::fit_settings();
+    let table = implicitize::pipeline::settings::FitSettings::table();
     let mut values = serde_json::Map::new();
     for (key, value) in settings.into_iter().flat_map(|d| d.iter()) {
         let name: String = key.extract()?;
@@ -204,8 +204,8 @@ pub fn fit_options(
             values.insert(name, setting_value(setting, &value)?);
         }
     }
-    let settings =
-        implicitize::pipeline::settings::from_values(values, "options").map_err(to_py)?;
+    let settings = implicitize::pipeline::settings::FitSettings::from_values(values, "options")
+        .map_err(to_py)?;
     settings.options("options", memory_limit(memory)?).map_err(to_py)
 }
 

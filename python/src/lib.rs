@@ -74,13 +74,13 @@ fn defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(defaults)
 }
 
-/// Every setting of a fit (`implicitize::pipeline::settings::fit_settings`), as dicts: its name (the
+/// Every setting of a fit (`implicitize::pipeline::settings::FitSettings::table`), as dicts: its name (the
 /// keyword), kind (`count`, `number`, `counts3`, `switch`, `choice` with its `choices`,
 /// `text`), value name, unit, default as text (`None` where nothing given means something
 /// else), the setting it excludes, and its help.
 #[pyfunction]
 fn fit_settings(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
-    implicitize::pipeline::settings::fit_settings()
+    implicitize::pipeline::settings::FitSettings::table()
         .into_iter()
         .map(|setting| {
             let dict = PyDict::new(py);

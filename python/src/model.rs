@@ -261,7 +261,7 @@ impl FitObserver for Progress {
 }
 
 /// Fits `mesh` (paper 5, or 3.2 with method "naive") as `implicitize fit` does, with the
-/// fit's settings as keywords (`implicitize::pipeline::settings::fit_settings`; a `None` is the
+/// fit's settings as keywords (`implicitize::pipeline::settings::FitSettings::table`; a `None` is the
 /// library's default).
 #[pyfunction]
 #[pyo3(signature = (mesh, progress=false, memory_limit=None, **settings))]

@@ -7,7 +7,7 @@
 //! conversion into the library's [`MeshFitOptions`]: the defaults, the ranges and their
 //! errors live there, not in each front end.
 //!
-//! [`fit_settings`] describes each setting (its name, unit, default and one line of help) for
+//! [`FitSettings::table`] describes each setting (its name, unit, default and one line of help) for
 //! the front ends and the docs; tests hold the command line's flags, the Python signatures
 //! and stubs and the batch front ends against it, so that a setting added here and missed
 //! there fails a test.
@@ -26,7 +26,7 @@ use crate::grid::Resolution;
 use crate::memory::MemoryLimit;
 
 /// A fit's settings as the user gives them; `None` or `false`: the library's default (see
-/// [`fit_settings`] for each one's meaning, unit and default).
+/// [`FitSettings::table`] for each one's meaning, unit and default).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 #[non_exhaustive]
@@ -111,188 +111,6 @@ impl Setting {
     }
 }
 
-/// Every setting of [`FitSettings`], in the order the front ends list them.
-pub fn fit_settings() -> Vec<Setting> {
-    let fit = FitOptions::default();
-    let text = |value: &dyn std::fmt::Display| Some(value.to_string());
-    vec![
-        Setting {
-            name: "resolution",
-            kind: Kind::Count,
-            value_name: "N",
-            unit: "voxels",
-            default: text(&Resolution::DEFAULT_LONGEST_AXIS),
-            excludes: Some("dims"),
-            help: "Voxels along the mesh's longest axis, margins included (the paper's \
-                   volumes: bunny 220, horse 337, triceratops 320)"
-                .into(),
-        },
-        Setting {
-            name: "dims",
-            kind: Kind::Counts3,
-            value_name: "NX NY NZ",
-            unit: "voxels, three",
-            default: None,
-            excludes: Some("resolution"),
-            help: "An exact grid size instead of resolution".into(),
-        },
-        Setting {
-            name: "target_error",
-            kind: Kind::Number,
-            value_name: "VOXELS",
-            unit: "voxels",
-            default: text(&fit.target_error),
-            excludes: None,
-            help: "Stop once the max error E is at most this many voxels; errors above it are \
-                   corrected however flat the surface is there"
-                .into(),
-        },
-        Setting {
-            name: "seed",
-            kind: Kind::Count,
-            value_name: "SEED",
-            unit: "integer",
-            default: text(&fit.seed),
-            excludes: None,
-            help: "Seed of every random choice, such as the initial constraints (same seed, \
-                   same model)"
-                .into(),
-        },
-        Setting {
-            name: "max_constraints",
-            kind: Kind::Count,
-            value_name: "N",
-            unit: "count",
-            default: text(&MAX_CONSTRAINTS),
-            excludes: None,
-            help: format!(
-                "Never use more constraints than this (the naive method: {}, half of them mesh \
-                 vertices)",
-                Method::Naive.default_max_constraints()
-            ),
-        },
-        Setting {
-            name: "method",
-            kind: Kind::Choice(&["iterative", "naive"]),
-            value_name: "METHOD",
-            unit: "iterative or naive",
-            default: text(&"iterative"),
-            excludes: None,
-            help: "How the constraints are made: the paper's iterative method (section 5), or \
-                   its simple method (section 3.2), mesh vertices and normal offsets"
-                .into(),
-        },
-        Setting {
-            name: "max_iterations",
-            kind: Kind::Count,
-            value_name: "N",
-            unit: "count",
-            default: text(&fit.max_iterations),
-            excludes: None,
-            help: "Stop after this many iterations".into(),
-        },
-        Setting {
-            name: "subvoxel",
-            kind: Kind::Switch,
-            value_name: "",
-            unit: "flag",
-            default: None,
-            excludes: None,
-            help: "Measure E from points on the surfaces rather than from voxel centres: the \
-                   measure for targets of a voxel or less (a voxel-centre E is never below 0.5 \
-                   and moves in steps)"
-                .into(),
-        },
-        Setting {
-            name: "full_resolution",
-            kind: Kind::Switch,
-            value_name: "",
-            unit: "flag",
-            default: None,
-            excludes: None,
-            help: "Run every iteration on the full grid: no start at half the resolution \
-                   (which the fit makes on grids of 128 voxels or more)"
-                .into(),
-        },
-        Setting {
-            name: "levels",
-            kind: Kind::Count,
-            value_name: "N",
-            unit: "count",
-            default: text(&LevelOptions::default().max_levels),
-            excludes: None,
-            help: "At most this many detail levels: on grids of 384 voxels or more, level 0 \
-                   is fitted at a quarter of the resolution and levels of compactly supported \
-                   functions are added until E is at most the target; 0 fits one function as \
-                   the paper does"
-                .into(),
-        },
-        Setting {
-            name: "shell",
-            kind: Kind::Text,
-            value_name: "T",
-            unit: "voxels, or mesh units with the suffix u",
-            default: None,
-            excludes: Some("solid"),
-            help: "Fit the mesh's surface thickened to T in all (half on each side) instead of \
-                   its solid, for open shells and walls too thin for the grid: voxels (2) or \
-                   mesh units (0.01u)"
-                .into(),
-        },
-        Setting {
-            name: "solid",
-            kind: Kind::Switch,
-            value_name: "",
-            unit: "flag",
-            default: None,
-            excludes: Some("shell"),
-            help: "Fit the solid an open mesh's winding numbers guess even where much of the \
-                   grid is a guess (more than a fifth of it near one half), which is refused \
-                   otherwise"
-                .into(),
-        },
-        Setting {
-            name: "max_bytes",
-            kind: Kind::Count,
-            value_name: "N",
-            unit: "bytes",
-            default: None,
-            excludes: None,
-            help: "Make the most accurate model whose binary file has at most N bytes, \
-                   choosing the resolution, target and detail levels; a budget below the \
-                   smallest model is refused, naming its size"
-                .into(),
-        },
-    ]
-}
-
-/// [`FitSettings`] from values by setting name (JSON: numbers, booleans, text, lists), as a
-/// front end read them by each setting's [`Kind`]; a null is a setting not given.
-///
-/// # Errors
-/// A name that is no setting, or a value of the wrong kind, named (`context` names where the
-/// values came from).
-pub fn from_values(
-    values: serde_json::Map<String, serde_json::Value>,
-    context: &str,
-) -> Result<FitSettings> {
-    let table = fit_settings();
-    for (name, value) in &values {
-        let Some(setting) = table.iter().find(|s| s.name == name) else {
-            return Err(Error::invalid(context, format!("`{name}` is not a fit setting")));
-        };
-        if !value.is_null() && !setting.kind.accepts(value) {
-            return Err(Error::invalid(
-                context,
-                format!("`{name}` takes {}, not {value}", setting.kind.words()),
-            ));
-        }
-    }
-    let values: serde_json::Map<_, _> = values.into_iter().filter(|(_, v)| !v.is_null()).collect();
-    serde_json::from_value(serde_json::Value::Object(values))
-        .map_err(|e| Error::invalid(context, format!("not a fit's settings: {e}")))
-}
-
 /// A setting of text, given as text or as a number (a shell of `2` voxels: `"2"`).
 fn text_or_number<'de, D: serde::Deserializer<'de>>(
     d: D,
@@ -345,6 +163,190 @@ impl Kind {
 }
 
 impl FitSettings {
+    /// Every setting, in the order the front ends list them.
+    pub fn table() -> Vec<Setting> {
+        let fit = FitOptions::default();
+        let text = |value: &dyn std::fmt::Display| Some(value.to_string());
+        vec![
+            Setting {
+                name: "resolution",
+                kind: Kind::Count,
+                value_name: "N",
+                unit: "voxels",
+                default: text(&Resolution::DEFAULT_LONGEST_AXIS),
+                excludes: Some("dims"),
+                help: "Voxels along the mesh's longest axis, margins included (the paper's \
+                       volumes: bunny 220, horse 337, triceratops 320)"
+                    .into(),
+            },
+            Setting {
+                name: "dims",
+                kind: Kind::Counts3,
+                value_name: "NX NY NZ",
+                unit: "voxels, three",
+                default: None,
+                excludes: Some("resolution"),
+                help: "An exact grid size instead of resolution".into(),
+            },
+            Setting {
+                name: "target_error",
+                kind: Kind::Number,
+                value_name: "VOXELS",
+                unit: "voxels",
+                default: text(&fit.target_error),
+                excludes: None,
+                help: "Stop once the max error E is at most this many voxels; errors above it are \
+                       corrected however flat the surface is there"
+                    .into(),
+            },
+            Setting {
+                name: "seed",
+                kind: Kind::Count,
+                value_name: "SEED",
+                unit: "integer",
+                default: text(&fit.seed),
+                excludes: None,
+                help: "Seed of every random choice, such as the initial constraints (same seed, \
+                       same model)"
+                    .into(),
+            },
+            Setting {
+                name: "max_constraints",
+                kind: Kind::Count,
+                value_name: "N",
+                unit: "count",
+                default: text(&MAX_CONSTRAINTS),
+                excludes: None,
+                help: format!(
+                    "Never use more constraints than this (the naive method: {}, half of them mesh \
+                     vertices)",
+                    Method::Naive.default_max_constraints()
+                ),
+            },
+            Setting {
+                name: "method",
+                kind: Kind::Choice(&["iterative", "naive"]),
+                value_name: "METHOD",
+                unit: "iterative or naive",
+                default: text(&"iterative"),
+                excludes: None,
+                help: "How the constraints are made: the paper's iterative method (section 5), or \
+                       its simple method (section 3.2), mesh vertices and normal offsets"
+                    .into(),
+            },
+            Setting {
+                name: "max_iterations",
+                kind: Kind::Count,
+                value_name: "N",
+                unit: "count",
+                default: text(&fit.max_iterations),
+                excludes: None,
+                help: "Stop after this many iterations".into(),
+            },
+            Setting {
+                name: "subvoxel",
+                kind: Kind::Switch,
+                value_name: "",
+                unit: "flag",
+                default: None,
+                excludes: None,
+                help: "Measure E from points on the surfaces rather than from voxel centres: the \
+                       measure for targets of a voxel or less (a voxel-centre E is never below 0.5 \
+                       and moves in steps)"
+                    .into(),
+            },
+            Setting {
+                name: "full_resolution",
+                kind: Kind::Switch,
+                value_name: "",
+                unit: "flag",
+                default: None,
+                excludes: None,
+                help: "Run every iteration on the full grid: no start at half the resolution \
+                       (which the fit makes on grids of 128 voxels or more)"
+                    .into(),
+            },
+            Setting {
+                name: "levels",
+                kind: Kind::Count,
+                value_name: "N",
+                unit: "count",
+                default: text(&LevelOptions::default().max_levels),
+                excludes: None,
+                help: "At most this many detail levels: on grids of 384 voxels or more, level 0 \
+                       is fitted at a quarter of the resolution and levels of compactly supported \
+                       functions are added until E is at most the target; 0 fits one function as \
+                       the paper does"
+                    .into(),
+            },
+            Setting {
+                name: "shell",
+                kind: Kind::Text,
+                value_name: "T",
+                unit: "voxels, or mesh units with the suffix u",
+                default: None,
+                excludes: Some("solid"),
+                help:
+                    "Fit the mesh's surface thickened to T in all (half on each side) instead of \
+                       its solid, for open shells and walls too thin for the grid: voxels (2) or \
+                       mesh units (0.01u)"
+                        .into(),
+            },
+            Setting {
+                name: "solid",
+                kind: Kind::Switch,
+                value_name: "",
+                unit: "flag",
+                default: None,
+                excludes: Some("shell"),
+                help: "Fit the solid an open mesh's winding numbers guess even where much of the \
+                       grid is a guess (more than a fifth of it near one half), which is refused \
+                       otherwise"
+                    .into(),
+            },
+            Setting {
+                name: "max_bytes",
+                kind: Kind::Count,
+                value_name: "N",
+                unit: "bytes",
+                default: None,
+                excludes: None,
+                help: "Make the most accurate model whose binary file has at most N bytes, \
+                       choosing the resolution, target and detail levels; a budget below the \
+                       smallest model is refused, naming its size"
+                    .into(),
+            },
+        ]
+    }
+
+    /// The settings from values by setting name (JSON: numbers, booleans, text, lists), as a
+    /// front end read them by each setting's [`Kind`]; a null is a setting not given.
+    ///
+    /// # Errors
+    /// A name that is no setting, or a value of the wrong kind, named (`context` names where the
+    /// values came from).
+    pub fn from_values(
+        values: serde_json::Map<String, serde_json::Value>,
+        context: &str,
+    ) -> Result<FitSettings> {
+        let table = FitSettings::table();
+        for (name, value) in &values {
+            let Some(setting) = table.iter().find(|s| s.name == name) else {
+                return Err(Error::invalid(context, format!("`{name}` is not a fit setting")));
+            };
+            if !value.is_null() && !setting.kind.accepts(value) {
+                return Err(Error::invalid(
+                    context,
+                    format!("`{name}` takes {}, not {value}", setting.kind.words()),
+                ));
+            }
+        }
+        let values: serde_json::Map<_, _> =
+            values.into_iter().filter(|(_, v)| !v.is_null()).collect();
+        serde_json::from_value(serde_json::Value::Object(values))
+            .map_err(|e| Error::invalid(context, format!("not a fit's settings: {e}")))
+    }
+
     /// The library's options: its defaults with what was given set on them, checked, under
     /// `memory_limit`.
     ///

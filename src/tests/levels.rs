@@ -329,7 +329,7 @@ fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
     };
     let mut batch_options = BatchOptions::default();
     batch_options.fit = options.clone();
-    let entry = batch::convert(&job, dir.path(), &batch_options);
+    let entry = job.convert(dir.path(), &batch_options);
     let stopped = entry.stopped.expect("a converted mesh says why its fit stopped");
     assert!(
         stopped.starts_with("the paper's loop: reached 150 constraints above the target")

@@ -1,10 +1,10 @@
 //! The fit's settings on the command line: every setting of the library's table
-//! (`implicitize::pipeline::settings::fit_settings`) is a flag of `fit`, `demo` and `batch`, with the
+//! (`implicitize::pipeline::settings::FitSettings::table`) is a flag of `fit`, `demo` and `batch`, with the
 //! table's default but in the demo, and `--config` reads a settings file under the flags given.
 
 use std::process::Command;
 
-use implicitize::pipeline::settings::fit_settings;
+use implicitize::pipeline::settings::FitSettings;
 use implicitize_test_support::data::triceratops;
 
 fn implicitize() -> Command {
@@ -31,7 +31,7 @@ fn paragraph<'a>(help: &'a str, flag: &str) -> Option<&'a str> {
 fn every_setting_is_a_flag_with_the_library_default() {
     for command in ["fit", "demo", "batch"] {
         let help = help(command);
-        for setting in fit_settings() {
+        for setting in FitSettings::table() {
             let flag = setting.flag();
             let text = paragraph(&help, &flag)
                 .unwrap_or_else(|| panic!("`{command} --help` has no {flag}:\n{help}"));

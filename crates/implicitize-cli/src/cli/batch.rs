@@ -39,11 +39,10 @@ pub struct BatchCommand {
 
 /// Runs the batch; fails (after writing the manifest) when any mesh failed.
 pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
-    let inputs = batch::collect_inputs(&args.inputs)?;
-    if inputs.is_empty() {
+    let jobs = batch::plan(&args.inputs)?;
+    if jobs.is_empty() {
         anyhow::bail!("no mesh files in {}", args.inputs.join(" "));
     }
-    let jobs = batch::plan(&inputs);
     let threads = match args.jobs {
         Some(0) => anyhow::bail!("--jobs 0: at least one job must run"),
         Some(n) => n,
@@ -61,7 +60,7 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
         report(entry, &bar, progress);
     })?;
     bar.finish_and_clear();
-    batch::write_manifest(&args.output, &entries)?;
+    let summary = batch::finish(&args.output, &entries)?;
     let failed = entries.iter().filter(|e| e.status == Status::Failed).count();
     let reused = entries.iter().filter(|e| e.reused).count();
     progress.line(format!(
@@ -71,7 +70,7 @@ pub fn run(args: &BatchCommand, progress: Progress) -> anyhow::Result<()> {
         entries.len(),
         args.output.join(batch::MANIFEST).display()
     ));
-    for line in batch::summary(&entries) {
+    for line in summary {
         progress.line(line);
     }
     if failed > 0 {

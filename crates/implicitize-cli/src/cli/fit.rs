@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, ValueEnum};
 use implicitize::fit::{ErrorMeasure, FitOptions, IterationReport};
-use implicitize::pipeline::settings::{FitSettings, fit_settings};
+use implicitize::pipeline::settings::FitSettings;
 use implicitize::pipeline::{self, FitObserver, FitOutputs, MeshFitOptions, MeshSource, Prepared};
 use implicitize::{mesh, model::ModelFormat, output, rbf::Implicit};
 
@@ -105,7 +105,7 @@ impl FitArgs {
         let mut merged = serde_json::to_value(flags).expect("settings serialize");
         let unset = serde_json::to_value(FitSettings::default()).expect("settings serialize");
         let given = |name: &str| given.iter().any(|g| g == name);
-        for setting in fit_settings() {
+        for setting in FitSettings::table() {
             let (name, value) = (setting.name, &file[setting.name]);
             let set = !(value.is_null() || value == &serde_json::Value::Bool(false));
             if !set || given(name) {

@@ -1,12 +1,12 @@
 //! The fit's settings as flags, made from the library's table
-//! (`implicitize::pipeline::settings::fit_settings`): each setting's flag, value, help and default come
+//! (`implicitize::pipeline::settings::FitSettings::table`): each setting's flag, value, help and default come
 //! from there, and the values given are read into `FitSettings` by name, so that a setting
 //! added to the library is a flag of `fit`, `demo` and `batch` without a line here.
 
 use clap::error::ErrorKind;
 use clap::parser::ValueSource;
 use clap::{Arg, ArgAction, ArgMatches, Args, Command, FromArgMatches};
-use implicitize::pipeline::settings::{FitSettings, Kind, Setting, fit_settings, from_values};
+use implicitize::pipeline::settings::{FitSettings, Kind, Setting};
 use serde_json::{Map, Value};
 
 /// The fit's settings as the command line gave them.
@@ -56,7 +56,7 @@ fn help(setting: &Setting, default: Option<&str>) -> String {
 /// `arg` (the flag of the setting `name`) with a default of a command's own, shown and taken
 /// when the command line gives none.
 pub fn own_default(arg: Arg, name: &str, default: &'static str) -> Arg {
-    let setting = fit_settings().into_iter().find(|s| s.name == name).expect("a setting");
+    let setting = FitSettings::table().into_iter().find(|s| s.name == name).expect("a setting");
     arg.help(help(&setting, Some(default))).default_value(default).hide_default_value(true)
 }
 
@@ -86,7 +86,7 @@ fn value(setting: &Setting, matches: &ArgMatches) -> Result<Value, clap::Error> 
 impl FromArgMatches for SettingsArgs {
     fn from_arg_matches(matches: &ArgMatches) -> Result<Self, clap::Error> {
         let (mut values, mut given) = (Map::new(), Vec::new());
-        for setting in fit_settings() {
+        for setting in FitSettings::table() {
             match matches.value_source(setting.name) {
                 Some(ValueSource::CommandLine) => given.push(setting.name.to_string()),
                 // A default of a command's own (`own_default`); switches are off by default.
@@ -95,7 +95,7 @@ impl FromArgMatches for SettingsArgs {
             }
             values.insert(setting.name.to_string(), value(&setting, matches)?);
         }
-        let settings = from_values(values, "options")
+        let settings = FitSettings::from_values(values, "options")
             .map_err(|e| clap::Error::raw(ErrorKind::ValueValidation, format!("{e}\n")))?;
         Ok(SettingsArgs { settings, given })
     }
@@ -108,7 +108,7 @@ impl FromArgMatches for SettingsArgs {
 
 impl Args for SettingsArgs {
     fn augment_args(command: Command) -> Command {
-        fit_settings().iter().fold(command, |command, setting| command.arg(flag(setting)))
+        FitSettings::table().iter().fold(command, |command, setting| command.arg(flag(setting)))
     }
 
     fn augment_args_for_update(command: Command) -> Command {
