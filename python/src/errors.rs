@@ -23,7 +23,7 @@ pub fn invalid(message: impl Into<String>) -> PyErr {
     PyValueError::new_err(message.into())
 }
 
-/// Issues a library warning (see [`implicitize::pipeline::warnings`]) as a Python
+/// Issues a library warning (see `implicitize::pipeline::Prepared::warnings`) as a Python
 /// `UserWarning`, its settings worded as keywords, pointing at the line that called the
 /// package's function (two frames up: the package's wrapper calls the extension).
 pub fn warn(py: Python<'_>, warning: &str) -> PyResult<()> {

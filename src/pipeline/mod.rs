@@ -689,15 +689,6 @@ pub fn fit_file(path: &Path, options: &MeshFitOptions) -> Result<Fitted> {
     fit(MeshSource::File(path), options, &FitOutputs::default(), &mut ())
 }
 
-/// The grid `resolution` places around `mesh`. `source` names the mesh in errors.
-///
-/// # Errors
-/// A mesh without triangles, and the errors of [`Grid::around`].
-pub fn grid_around(mesh: &Mesh, resolution: Resolution, source: &str) -> Result<Grid> {
-    let bounds = mesh_bounds(mesh, source)?;
-    Grid::around(&bounds, resolution).map_err(|e| e.in_context(source))
-}
-
 /// The grid `resolution` places around `bounds`, once `estimate` of the work on it fits in
 /// `limit` bytes; a refusal names the largest resolution that fits.
 fn checked_grid(
@@ -1306,7 +1297,7 @@ fn with_mesh_points(
 /// `inside`: a mesh open enough that its inside is a guess
 /// ([`crate::voxelize::Ambiguity::warning`]), and for a solid (no `shell`), walls the fit may
 /// not hold ([`Thickness::warning`]).
-pub fn warnings(
+pub(crate) fn warnings(
     inside: &Inside,
     thickness: Option<&Thickness>,
     shell: Option<Shell>,

@@ -6,11 +6,12 @@
 use crate::tests::support::hostile::{cube, open_box};
 use crate::tests::support::meshes::{merge, point_triangle_distance, sphere, torus};
 use implicitize::grid::Volume;
+use implicitize::grid::{Grid, Resolution};
 use implicitize::memory::{Estimate, MemoryLimit};
 use implicitize::mesh::Mesh;
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, VolumeKind, VolumeOptions};
-use implicitize::{DVec3, Error, grid::Resolution};
+use implicitize::{DVec3, Error};
 
 fn options(resolution: usize, band: Option<f64>) -> VolumeOptions {
     let mut options = VolumeOptions::default();
@@ -144,7 +145,7 @@ fn bad_bands_and_a_small_memory_limit_are_refused() {
     }
     // The query's bytes per triangle join the volume's estimate, checked before any work.
     let triangles = mesh.triangles.len();
-    let grid = pipeline::grid_around(&mesh, Resolution::LongestAxis(200), "ring.obj").unwrap();
+    let grid = Grid::around(&mesh.bounds().unwrap(), Resolution::LongestAxis(200)).unwrap();
     let need = Estimate::exact_volume(grid.dims, triangles);
     let query_bytes = need.bytes - Estimate::volume(grid.dims, triangles).bytes;
     assert!(query_bytes > 0 && query_bytes.is_multiple_of(triangles as u64), "{query_bytes}");

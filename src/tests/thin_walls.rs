@@ -8,10 +8,11 @@ use crate::tests::support::shells::{hollow_ball, open_hemisphere, parallel_sheet
 use implicitize::Field;
 use implicitize::FrontEnd;
 use implicitize::fit::Thickness;
+use implicitize::grid::{Grid, Resolution};
 use implicitize::mesh_query::MeshQuery;
 use implicitize::pipeline::{self, MeshFitOptions, MeshSource, Prepared};
 use implicitize::voxelize::shell::Shell;
-use implicitize::{DVec3, Error, grid::Resolution, mesh::Mesh};
+use implicitize::{DVec3, Error, mesh::Mesh};
 
 /// The grid of the tests: small, so that each fit takes a second or two.
 const RESOLUTION: usize = 48;
@@ -25,7 +26,7 @@ fn options() -> MeshFitOptions {
 /// The voxel size of the tests' grid around a ball of radius 1 at the origin.
 fn voxel() -> f64 {
     let ball = sphere(DVec3::ZERO, 1.0, 8, 16);
-    pipeline::grid_around(&ball, Resolution::LongestAxis(RESOLUTION), "ball").unwrap().voxel_size
+    Grid::around(&ball.bounds().unwrap(), Resolution::LongestAxis(RESOLUTION)).unwrap().voxel_size
 }
 
 /// How a fit of `mesh` (named `name`) ended: its E, or the refusal's message (for the command

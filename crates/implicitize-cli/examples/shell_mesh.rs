@@ -7,7 +7,8 @@
 
 use std::path::Path;
 
-use implicitize::{grid::Resolution, mesh, pipeline};
+use implicitize::grid::{Grid, Resolution};
+use implicitize::mesh;
 use implicitize_test_support::{hostile, shells};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -29,7 +30,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mesh = match kind.as_str() {
         "bust" | "ball" => {
             let probe = shells::hollow_ball(1.0, 0.1, bump, opening, rings, segments);
-            let voxel = pipeline::grid_around(&probe, Resolution::default(), "probe")?.voxel_size;
+            let bounds = probe.bounds().ok_or("the probe has no triangles")?;
+            let voxel = Grid::around(&bounds, Resolution::default())?.voxel_size;
             shells::hollow_ball(1.0, wall * voxel, bump, opening, rings, segments)
         }
         "hemisphere" => shells::open_hemisphere(1.0, rings, segments),
