@@ -5,13 +5,13 @@
 //! The paper's 2D goal was "obtained from blurring and thresholding the Graphics Interface
 //! logo". Here:
 //!
-//! 1. [`Luminance::read_png`] reads a PNG (grey, grey + alpha, RGB, RGBA or palette, 1 to 16
+//! 1. `Luminance::read_png` reads a PNG (grey, grey + alpha, RGB, RGBA or palette, 1 to 16
 //!    bits) as luminance in [0, 1], `0.2126 R + 0.7152 G + 0.0722 B` on the stored values,
 //!    transparent pixels composited over white (so a logo on a transparent background reads as
 //!    dark on white).
-//! 2. [`Luminance::blurred`] applies an optional Gaussian blur (sigma in pixels, edges
+//! 2. `Luminance::blurred` applies an optional Gaussian blur (sigma in pixels, edges
 //!    replicated), which rounds the corners of a sharp logo.
-//! 3. [`density`] thresholds it: a pixel is inside where its luminance is below the threshold
+//! 3. `density` thresholds it: a pixel is inside where its luminance is below the threshold
 //!    (dark inside), or above it with [`ImageOptions::invert`]. The densities are antialiased to
 //!    sub-pixel precision: `clamp(1/2 + d, 0, 1)` where `d` is the first-order distance (in
 //!    pixels, inside positive) from the pixel centre to the threshold contour,
@@ -38,7 +38,7 @@ use crate::grid::{Grid, Volume};
 
 /// A picture's luminance in [0, 1] (0 black, 1 white), rows from the top.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Luminance {
+pub(crate) struct Luminance {
     /// Pixels per row.
     pub width: usize,
     /// Rows.
@@ -85,7 +85,7 @@ impl Luminance {
 
     /// Reads the bytes of a PNG file as luminance; `path` names it in messages.
     ///
-    /// Fails as [`Luminance::read_png`], and also, before decoding, when the pixels its header
+    /// Fails as `Luminance::read_png`, and also, before decoding, when the pixels its header
     /// declares could not come from so few bytes (more than 1,032 times the file, the most deflate can inflate).
     pub fn read_png_bytes(bytes: &[u8], path: &Path) -> Result<Luminance> {
         let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
@@ -230,7 +230,7 @@ fn convolve(kernel: &[f32], n: usize, get: impl Fn(usize) -> f32, mut set: impl 
 
 /// The antialiased inside densities of `image` thresholded as `options` say, row by row from
 /// the top like the image (see the module documentation).
-pub fn threshold(image: &Luminance, options: &ImageOptions) -> Vec<f32> {
+pub(crate) fn threshold(image: &Luminance, options: &ImageOptions) -> Vec<f32> {
     let (w, h) = (image.width, image.height);
     let sign = if options.invert { -1.0 } else { 1.0 };
     let mut out = Vec::with_capacity(w * h);
@@ -270,7 +270,7 @@ fn derivative(n: usize, x: usize, get: impl Fn(usize) -> f32) -> f32 {
 ///
 /// `source` names the image in errors. Fails when the options are out of range, or when no
 /// pixel or every pixel is inside.
-pub fn density(
+pub(crate) fn density(
     image: &Luminance,
     options: &ImageOptions,
     source: &Path,
@@ -376,7 +376,7 @@ impl Margins {
     }
 }
 
-/// Reads a PNG and makes its goal density volume and bounds (see [`density`]).
+/// Reads a PNG and makes its goal density volume and bounds (see `density`).
 pub fn read_density(path: &Path, options: &ImageOptions) -> Result<(Volume<f32>, Aabb)> {
     density(&Luminance::read_png(path)?, options, path)
 }

@@ -20,6 +20,7 @@ mod csg;
 mod edt;
 mod exact_volume;
 mod fit;
+mod goal2d;
 mod levels;
 mod mesh_formats;
 mod mesh_fuzz;
