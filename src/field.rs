@@ -26,7 +26,7 @@ pub trait Field: Sync {
 
     /// Points known to lie on (or very near) the zero set, such as a fitted function's boundary
     /// constraints; none by default. Polygonization follows the surface from them instead of
-    /// evaluating the whole grid (see [`crate::polygonize()`]), so a field should offer points
+    /// evaluating the whole grid (see [`crate::polygonize::polygonize()`]), so a field should offer points
     /// spread over every part of its surface, or none.
     fn surface_points(&self) -> Vec<DVec3> {
         Vec::new()

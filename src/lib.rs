@@ -87,13 +87,13 @@
 //! | the iterative fit and its report | [`fit`] | 3.2, 5 |
 //! | detail levels of compactly supported functions over the fit | [`rbf::MultiScale`] | |
 //! | a mesh to a fitted model in one call | [`pipeline`] | |
-//! | a fit's settings by their user-facing names, written once | [`settings`] | |
+//! | a fit's settings by their user-facing names, written once | [`pipeline::settings`] | |
 //! | the shapes a model holds; save and load models | [`shape`], [`model`] | |
 //! | a 2D goal from a PNG image | [`goal2d`] | 4.3 |
 //! | draw fields and meshes | [`render`] | figures 1, 3-5 |
 //! | GLSL and WGSL source of a model, for GPUs and the viewer | [`shader`] | |
-//! | extract a surface as a mesh | [`polygonize`](mod@polygonize) | 5.2, figures |
-//! | combine models: union, intersection, difference | [`csg`] (a kind of [`shape`]) | 1 |
+//! | extract a surface as a mesh | [`polygonize`] | 5.2, figures |
+//! | combine models: union, intersection, difference | [`shape::csg`] (a kind of [`shape`]) | 1 |
 //! | morph one model into another | [`morph`] | 1, 7 |
 //! | convert many meshes, resumably, with a manifest | [`batch`] | |
 //! | write output files atomically | [`output`] | |

@@ -1007,7 +1007,9 @@ impl<'a> Prepared<'a> {
         self.thickness
     }
 
-    /// What a user should know before the fit (see [`warnings`]).
+    /// What a user should know before the fit, one line each (no file name, settings
+    /// backquoted as in errors): a mesh open enough that its inside is a guess, and for a solid
+    /// (no `shell`), walls the fit may not hold.
     pub fn warnings(&self) -> Vec<String> {
         warnings(&self.inside, Some(&self.thickness), self.options.shell, self.goal.grid().dims)
     }
@@ -1394,7 +1396,8 @@ pub(crate) fn interior_surface(report: &FitReport) -> Option<String> {
 }
 
 impl Fitted {
-    /// What a user should know of this fit (see [`warnings`]).
+    /// What a user should know of this fit: the warnings known before it
+    /// ([`Prepared::warnings`]) and those of its outcome ([`outcome_warnings`]).
     pub fn warnings(&self) -> Vec<String> {
         let shell = self.report.shell_voxels.map(Shell::Voxels);
         let mut warnings =
