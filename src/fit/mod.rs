@@ -297,7 +297,10 @@ pub fn fit(
 /// The model as stored, and its figures: `implicit` (which measured `metrics`) made compact
 /// ([`compact::implicit`]) and measured again, at finer precisions while that takes its E above
 /// both the target and its own E before (rounding can tip a voxel's side), up to
-/// [`compact::Precision::TRIES`] tries. When none is within that, the try of least E is kept
+/// [`compact::Precision::TRIES`] tries. A try but the last whose rounding moves the surface by
+/// more than [`compact::Precision::MOVE_VOXELS`] ([`surface_move`]) goes finer unmeasured: a
+/// measure costs as much as an iteration of the loop, making it compact a few milliseconds.
+/// When none is within that, the try of least E is kept
 /// if it is within [`compact::Precision::SLACK_VOXELS`] more (E moves in steps: a voxel whose
 /// side tips moves it by a step), and the function as it is otherwise.
 fn stored(
@@ -310,10 +313,16 @@ fn stored(
     let allowed = options.error_measure.of(&metrics).max(options.target_error);
     let mut precision = options.precision.clone();
     let mut least: Option<(Implicit, ErrorMetrics)> = None;
-    for _ in 0..compact::Precision::TRIES {
+    for tries_left in (0..compact::Precision::TRIES).rev() {
         let compact = compact::implicit(implicit.clone(), goal.grid(), &precision)?;
         if compact.lattice().is_none() {
             break;
+        }
+        if tries_left > 0
+            && surface_move(goal, &implicit, &compact) > compact::Precision::MOVE_VOXELS
+        {
+            precision = precision.finer();
+            continue;
         }
         let measured = measure(goal, &compact, options, &mut log.totals).metrics;
         let error = options.error_measure.of(&measured);
@@ -334,6 +343,31 @@ fn stored(
         }
         _ => Ok((implicit, metrics)),
     }
+}
+
+/// At most this many of the goal's surface points are read by [`surface_move`].
+const MOVE_SAMPLES: usize = 4096;
+
+/// How far (voxels) `compact` moves the surface of `implicit` near the goal's surface: the
+/// largest `|compact - implicit| / |gradient of implicit|` over the goal's surface points (every
+/// one when there are at most [`MOVE_SAMPLES`], evenly spread ones beyond), in double
+/// precision.
+fn surface_move(goal: &Goal, implicit: &Implicit, compact: &Implicit) -> f64 {
+    let grid = goal.grid();
+    let stride = goal.surface.len().div_ceil(MOVE_SAMPLES).max(1);
+    let sites: Vec<[f64; 3]> =
+        goal.surface.iter().step_by(stride).map(|&p| grid.to_world(p).to_array()).collect();
+    let before = implicit.values3_exact(&sites);
+    let after = compact.values3_exact(&sites);
+    sites
+        .par_iter()
+        .zip(before.par_iter().zip(&after))
+        .map(|(&p, (a, b))| {
+            let slope = implicit.gradient(DVec3::from_array(p)).length();
+            (a - b).abs() / slope / grid.voxel_size
+        })
+        .filter(|m| m.is_finite())
+        .reduce(|| 0.0, f64::max)
 }
 
 /// The report of a fit on `grid` whose kept model measured `metrics`, from `log`.
@@ -774,24 +808,49 @@ mod tests {
         );
     }
 
+    /// 400 boundary constraints on a sphere of `radius`, with one inside and one outside.
+    fn sphere_constraints(radius: f64) -> Vec<rbf::Constraint> {
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let mut constraints: Vec<rbf::Constraint> = (0..400)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / 400.0;
+                let (r, t) = ((1.0 - z * z).sqrt(), golden * i as f64);
+                rbf::Constraint::new(&[radius * r * t.cos(), radius * r * t.sin(), radius * z], 0.0)
+            })
+            .collect();
+        constraints.push(rbf::Constraint::new(&[0.0, 0.0, 0.0], 1.0));
+        constraints.push(rbf::Constraint::new(&[2.0, 0.0, 0.0], -1.0));
+        constraints
+    }
+
+    /// The surface's move that makes `stored` skip a precision: none between a function and
+    /// itself, and a sphere's radius grown by 0.3 voxels moves it by 0.3 voxels (to the first
+    /// order of the difference over the slope) at the goal's surface points, the densities of
+    /// a ball of radius 1 on a grid of voxels 0.05 wide.
+    #[test]
+    fn the_surface_move_is_the_difference_over_the_slope_at_the_goal_s_surface() {
+        let grid = Grid { dims: [60, 60, 60], origin: [-1.5; 3], voxel_size: 0.05 };
+        let mut density = Volume::filled(grid, 0.0f32);
+        for (i, d) in density.data.iter_mut().enumerate() {
+            let r = grid.position(grid.voxel(i)).length();
+            *d = (0.5 + (1.0 - r) / grid.voxel_size).clamp(0.0, 1.0) as f32;
+        }
+        let goal = Goal::from_density(density, &FitOptions::default().regularity);
+        assert!(goal.surface.len() > 1000, "{} surface points", goal.surface.len());
+        let sphere = Implicit::solve(3, Kernel::ThinPlate, &sphere_constraints(1.0)).unwrap();
+        assert_eq!(surface_move(&goal, &sphere, &sphere), 0.0);
+        let grown = Implicit::solve(3, Kernel::ThinPlate, &sphere_constraints(1.015)).unwrap();
+        let moved = surface_move(&goal, &sphere, &grown);
+        assert!((moved - 0.3).abs() < 0.06, "moved {moved} voxels");
+    }
+
     /// A sphere of 400 boundary constraints (radius 1, with a soft constraint inside and one
     /// outside): single precision moves its surface by a small fraction of a voxel of 0.01, and
     /// suffices for a target of 2 such voxels; on a grid of voxels a million times smaller the
     /// same rounding is hundreds of voxels and the passes sum in double precision.
     #[test]
     fn the_volume_passes_sum_in_double_precision_where_single_would_misplace_the_surface() {
-        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-        let mut constraints: Vec<rbf::Constraint> = (0..400)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f64 + 0.5) / 400.0;
-                let r = (1.0 - z * z).sqrt();
-                let t = golden * i as f64;
-                rbf::Constraint::new(&[r * t.cos(), r * t.sin(), z], 0.0)
-            })
-            .collect();
-        constraints.push(rbf::Constraint::new(&[0.0, 0.0, 0.0], 1.0));
-        constraints.push(rbf::Constraint::new(&[2.0, 0.0, 0.0], -1.0));
-        let implicit = Implicit::solve(3, Kernel::ThinPlate, &constraints).unwrap();
+        let implicit = Implicit::solve(3, Kernel::ThinPlate, &sphere_constraints(1.0)).unwrap();
         let grid = |voxel_size| Grid { dims: [300, 300, 300], origin: [-1.5; 3], voxel_size };
         let coarse = single_precision_error(&implicit, &grid(0.01));
         assert!(coarse > 0.0 && coarse < 0.01, "{coarse}");
