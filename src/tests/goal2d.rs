@@ -6,25 +6,7 @@ use std::path::Path;
 
 use implicitize::goal2d::{self, ImageOptions, Luminance};
 
-/// A grey picture, luminance 0..=255, rows from the top.
-struct Picture {
-    width: usize,
-    height: usize,
-    grey: Vec<u8>,
-}
-
-impl Picture {
-    fn filled(width: usize, height: usize, grey: u8) -> Picture {
-        Picture { width, height, grey: vec![grey; width * height] }
-    }
-
-    /// Fills the rectangle at (left, top) of size w x h.
-    fn block(&mut self, (left, top, w, h): (usize, usize, usize, usize), grey: u8) {
-        for y in top..top + h {
-            self.grey[y * self.width + left..y * self.width + left + w].fill(grey);
-        }
-    }
-}
+use crate::tests::support::pictures::Picture;
 
 fn write_png(
     path: &Path,
@@ -62,11 +44,8 @@ fn the_threshold_decides_which_greys_are_inside() {
     let mut picture = Picture::filled(60, 30, 255);
     picture.block((5, 5, 20, 20), 77);
     picture.block((35, 5, 20, 20), 179);
-    let image = Luminance {
-        width: picture.width,
-        height: picture.height,
-        values: picture.grey.iter().map(|&g| f32::from(g) / 255.0).collect(),
-    };
+    let image =
+        Luminance { width: picture.width, height: picture.height, values: picture.luminance() };
     let inside_columns = |threshold: f32| {
         let options = ImageOptions { threshold, ..ImageOptions::default() };
         let (density, _) = goal2d::density(&image, &options, Path::new("grey.png")).unwrap();
@@ -83,11 +62,7 @@ fn the_threshold_decides_which_greys_are_inside() {
 fn the_blur_rounds_corners_and_antialiases_the_densities() {
     let mut picture = Picture::filled(60, 60, 255);
     picture.block((15, 15, 30, 30), 0);
-    let image = Luminance {
-        width: 60,
-        height: 60,
-        values: picture.grey.iter().map(|&g| f32::from(g) / 255.0).collect(),
-    };
+    let image = Luminance { width: 60, height: 60, values: picture.luminance() };
     let path = Path::new("square.png");
     let (sharp, _) = goal2d::density(&image, &ImageOptions::default(), path).unwrap();
     let blur = ImageOptions { blur: 3.0, ..ImageOptions::default() };

@@ -6,53 +6,10 @@ use std::process::{Command, Output};
 
 use implicitize::goal2d::{self, ImageOptions};
 use implicitize::{DVec3, Field, model::Model};
+use implicitize_test_support::pictures::Picture;
 
 fn implicitize() -> Command {
     Command::new(env!("CARGO_BIN_EXE_implicitize"))
-}
-
-/// A grey picture, luminance 0..=255, rows from the top.
-struct Picture {
-    width: usize,
-    height: usize,
-    grey: Vec<u8>,
-}
-
-impl Picture {
-    fn filled(width: usize, height: usize, grey: u8) -> Picture {
-        Picture { width, height, grey: vec![grey; width * height] }
-    }
-
-    /// Fills the rectangle at (left, top) of size w x h.
-    fn block(&mut self, (left, top, w, h): (usize, usize, usize, usize), grey: u8) {
-        for y in top..top + h {
-            self.grey[y * self.width + left..y * self.width + left + w].fill(grey);
-        }
-    }
-
-    fn at(&self, x: usize, y: usize) -> u8 {
-        self.grey[y * self.width + x]
-    }
-
-    fn inverted(&self) -> Picture {
-        Picture { grey: self.grey.iter().map(|g| 255 - g).collect(), ..*self }
-    }
-
-    /// Writes the picture as an 8-bit grey PNG.
-    fn save(&self, path: &Path) {
-        write_png(path, self.width, self.height, png::ColorType::Grayscale, &self.grey);
-    }
-}
-
-/// Writes an 8-bit PNG.
-fn write_png(path: &Path, width: usize, height: usize, color: png::ColorType, data: &[u8]) {
-    let file = std::io::BufWriter::new(std::fs::File::create(path).unwrap());
-    let mut encoder = png::Encoder::new(file, width as u32, height as u32);
-    encoder.set_color(color);
-    encoder.set_depth(png::BitDepth::Eight);
-    let mut writer = encoder.write_header().unwrap();
-    writer.write_image_data(data).unwrap();
-    writer.finish().unwrap();
 }
 
 /// The blocks of the letters "FIT", 14-pixel strokes on a 180 x 90 picture.
