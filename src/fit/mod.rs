@@ -355,19 +355,13 @@ const MOVE_SAMPLES: usize = 4096;
 fn surface_move(goal: &Goal, implicit: &Implicit, compact: &Implicit) -> f64 {
     let grid = goal.grid();
     let stride = goal.surface.len().div_ceil(MOVE_SAMPLES).max(1);
-    let sites: Vec<[f64; 3]> =
-        goal.surface.iter().step_by(stride).map(|&p| grid.to_world(p).to_array()).collect();
-    let before = implicit.values3_exact(&sites);
-    let after = compact.values3_exact(&sites);
-    sites
-        .par_iter()
-        .zip(before.par_iter().zip(&after))
-        .map(|(&p, (a, b))| {
-            let slope = implicit.gradient(DVec3::from_array(p)).length();
-            (a - b).abs() / slope / grid.voxel_size
-        })
-        .filter(|m| m.is_finite())
-        .reduce(|| 0.0, f64::max)
+    let sites: Vec<DVec3> =
+        goal.surface.iter().step_by(stride).map(|&p| grid.to_world(p)).collect();
+    let points: Vec<[f64; 3]> = sites.iter().map(|p| p.to_array()).collect();
+    let before = implicit.values3_exact(&points);
+    let after = compact.values3_exact(&points);
+    let moves: Vec<f64> = before.iter().zip(&after).map(|(a, b)| b - a).collect();
+    surface_offset(implicit, &sites, &moves, grid.voxel_size)
 }
 
 /// The report of a fit on `grid` whose kept model measured `metrics`, from `log`.
@@ -647,10 +641,17 @@ fn single_precision_error(implicit: &Implicit, grid: &Grid) -> f64 {
     let stride = boundary.len().div_ceil(PRECISION_SAMPLES).max(1);
     let sites: Vec<DVec3> = boundary.into_iter().step_by(stride).collect();
     let values = rbf::SinglePrecision(implicit).values(&sites);
+    surface_offset(implicit, &sites, &values, grid.voxel_size)
+}
+
+/// How far (voxels of `voxel_size`), to first order, values off those of `implicit` by
+/// `offsets` at `sites` move its surface there: the largest `|offset| / |gradient|` (where
+/// that is finite).
+fn surface_offset(implicit: &Implicit, sites: &[DVec3], offsets: &[f64], voxel_size: f64) -> f64 {
     sites
         .par_iter()
-        .zip(values)
-        .map(|(&p, value)| value.abs() / implicit.gradient(p).length() / grid.voxel_size)
+        .zip(offsets)
+        .map(|(&p, offset)| offset.abs() / implicit.gradient(p).length() / voxel_size)
         .filter(|e| e.is_finite())
         .fold(|| 0.0, f64::max)
         .reduce(|| 0.0, f64::max)
