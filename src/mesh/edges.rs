@@ -10,14 +10,21 @@ use rayon::prelude::*;
 use crate::geometry::DVec3;
 
 /// The triangles with every vertex replaced by the first vertex at the same position.
+///
+/// The vertices are sorted by their position's bits with their index, the keys stored beside
+/// the indices (a comparison reads them in place, not the vertices at random): each run of
+/// equal positions starts with its first vertex.
 pub(crate) fn weld(vertices: &[DVec3], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
     // +0.0 so that -0.0 and 0.0 weld.
-    let key = |i: u32| (vertices[i as usize] + DVec3::ZERO).to_array().map(f64::to_bits);
-    let mut order: Vec<u32> = (0..vertices.len() as u32).collect();
-    order.par_sort_unstable_by_key(|&i| (key(i), i));
+    let mut order: Vec<([u64; 3], u32)> = vertices
+        .par_iter()
+        .enumerate()
+        .map(|(i, v)| ((*v + DVec3::ZERO).to_array().map(f64::to_bits), i as u32))
+        .collect();
+    order.par_sort_unstable();
     let mut canonical = vec![0u32; vertices.len()];
-    for run in order.chunk_by(|&a, &b| key(a) == key(b)) {
-        run.iter().for_each(|&i| canonical[i as usize] = run[0]);
+    for run in order.chunk_by(|a, b| a.0 == b.0) {
+        run.iter().for_each(|&(_, i)| canonical[i as usize] = run[0].1);
     }
     triangles.par_iter().map(|t| t.map(|i| canonical[i as usize])).collect()
 }

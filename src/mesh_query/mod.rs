@@ -569,6 +569,11 @@ const PARALLEL: usize = 1 << 14;
 /// whatever the number of threads. The nodes (the root first, an inner node's children
 /// side by side), and the triangles' indices in the hierarchy's order (a leaf's `first` and
 /// `count` are a range of it).
+///
+/// A node split at a bin boundary takes its children's [`Bounds`] from its bins (unions of
+/// minima and maxima, the same numbers a pass over the children's triangles finds), so each
+/// level of the hierarchy reads its triangles twice (binning, then partitioning), not three
+/// times.
 fn hierarchy(triangles: &[[DVec3; 3]], leaf: usize) -> (Vec<Node>, Vec<u32>) {
     let mut items: Vec<Item> = (0..triangles.len() as u32)
         .into_par_iter()
@@ -580,21 +585,64 @@ fn hierarchy(triangles: &[[DVec3; 3]], leaf: usize) -> (Vec<Node>, Vec<u32>) {
             Item { centroid, min, max, t }
         })
         .collect();
-    let nodes = subtree(&mut items, 0, leaf);
+    let bounds = items.par_iter().map(Bounds::of).reduce(Bounds::empty, Bounds::union);
+    let nodes = subtree(&mut items, bounds, 0, leaf);
     (nodes, items.iter().map(|item| item.t).collect())
 }
 
-/// The nodes of the hierarchy over `items`, which start at `start` in the hierarchy's order,
-/// its root first: the two halves of a large node built in parallel, then put side by side.
-fn subtree(items: &mut [Item], start: usize, leaf: usize) -> Vec<Node> {
-    if items.len() < PARALLEL {
-        return sequential_subtree(items, start, leaf);
+/// The box of a run of [`Item`]s and the box of their centroids.
+#[derive(Debug, Clone, Copy)]
+struct Bounds {
+    min: Vec3,
+    max: Vec3,
+    /// The centroids' least and greatest coordinates.
+    low: Vec3,
+    high: Vec3,
+}
+
+impl Bounds {
+    /// The bounds of no item: every union with it is the other.
+    fn empty() -> Bounds {
+        let (inf, neg) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        Bounds { min: inf, max: neg, low: inf, high: neg }
     }
-    let (root, middle) = split(items, leaf);
-    let middle = middle.expect("a node of PARALLEL triangles is split");
+
+    /// The bounds of one item.
+    fn of(item: &Item) -> Bounds {
+        Bounds { min: item.min, max: item.max, low: item.centroid, high: item.centroid }
+    }
+
+    /// The bounds of the items of both.
+    fn union(self, other: Bounds) -> Bounds {
+        Bounds {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+            low: self.low.min(other.low),
+            high: self.high.max(other.high),
+        }
+    }
+
+    /// The bounds of `items`, by a pass over them.
+    fn over(items: &[Item]) -> Bounds {
+        items.iter().map(Bounds::of).fold(Bounds::empty(), Bounds::union)
+    }
+}
+
+/// The nodes of the hierarchy over `items` (of bounds `bounds`), which start at `start` in the
+/// hierarchy's order, its root first: the two halves of a large node built in parallel, then
+/// put side by side.
+fn subtree(items: &mut [Item], bounds: Bounds, start: usize, leaf: usize) -> Vec<Node> {
+    if items.len() < PARALLEL {
+        return sequential_subtree(items, bounds, start, leaf);
+    }
+    let (root, children) = split(items, bounds, leaf);
+    let (middle, below_bounds, above_bounds) =
+        children.expect("a node of PARALLEL triangles is split");
     let (below, above) = items.split_at_mut(middle);
-    let (left, right) =
-        rayon::join(|| subtree(below, start, leaf), || subtree(above, start + middle, leaf));
+    let (left, right) = rayon::join(
+        || subtree(below, below_bounds, start, leaf),
+        || subtree(above, above_bounds, start + middle, leaf),
+    );
     side_by_side(root, left, right)
 }
 
@@ -616,61 +664,65 @@ fn side_by_side(root: Node, left: Vec<Node>, right: Vec<Node>) -> Vec<Node> {
 }
 
 /// [`subtree`] on one thread, from a work list.
-fn sequential_subtree(items: &mut [Item], start: usize, leaf: usize) -> Vec<Node> {
+fn sequential_subtree(items: &mut [Item], bounds: Bounds, start: usize, leaf: usize) -> Vec<Node> {
     let mut nodes = Vec::with_capacity(4 * items.len() / leaf + 1);
     nodes.push(Node::new(DVec3::ZERO, DVec3::ZERO));
-    // (node, range of `items`) still to fill in.
-    let mut work = vec![(0usize, 0usize, items.len())];
-    while let Some((n, from, to)) = work.pop() {
-        let (node, middle) = split(&mut items[from..to], leaf);
+    // (node, range of `items`, their bounds) still to fill in.
+    let mut work = vec![(0usize, 0usize, items.len(), bounds)];
+    while let Some((n, from, to, bounds)) = work.pop() {
+        let (node, children) = split(&mut items[from..to], bounds, leaf);
         nodes[n] = node;
-        let Some(middle) = middle else {
+        let Some((middle, below, above)) = children else {
             (nodes[n].first, nodes[n].count) = ((start + from) as u32, (to - from) as u32);
             continue;
         };
         let child = nodes.len();
         nodes[n].first = child as u32;
         nodes.extend([node, node]);
-        work.push((child, from, from + middle));
-        work.push((child + 1, from + middle, to));
+        work.push((child, from, from + middle, below));
+        work.push((child + 1, from + middle, to, above));
     }
     nodes
 }
 
-/// The node over `part` (its box; no children yet) and, unless it is a leaf of at most `leaf`
-/// triangles, `part` reordered so that its first child's triangles come first, and how many.
-fn split(part: &mut [Item], leaf: usize) -> (Node, Option<usize>) {
-    let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    let (mut low, mut high) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-    for item in part.iter() {
-        (min, max) = (min.min(item.min), max.max(item.max));
-        (low, high) = (low.min(item.centroid), high.max(item.centroid));
-    }
+/// The node over `part`, whose bounds are `bounds` (its box; no children yet), and, unless it
+/// is a leaf of at most `leaf` triangles, `part` reordered so that its first child's triangles
+/// come first, how many, and the two children's bounds.
+fn split(
+    part: &mut [Item],
+    bounds: Bounds,
+    leaf: usize,
+) -> (Node, Option<(usize, Bounds, Bounds)>) {
+    let Bounds { min, max, low, high } = bounds;
     let node = Node { min, max, first: 0, count: 0 };
     if part.len() <= leaf {
         return (node, None);
     }
     let axis = (high - low).max_position();
-    let middle = Bins::split(part, axis, (low[axis], high[axis])).unwrap_or_else(|| {
+    let children = Bins::split(part, axis, (low[axis], high[axis])).unwrap_or_else(|| {
         let middle = part.len() / 2;
         part.select_nth_unstable_by(middle, |a, b| {
             a.centroid[axis].total_cmp(&b.centroid[axis]).then(a.t.cmp(&b.t))
         });
-        middle
+        (middle, Bounds::over(&part[..middle]), Bounds::over(&part[middle..]))
     });
-    (node, Some(middle))
+    (node, Some(children))
 }
 
-/// The bins of [`hierarchy`]'s split: each one's box and number of triangles.
+/// The bins of [`hierarchy`]'s split: each one's bounds and number of triangles.
 struct Bins {
-    boxes: [(Vec3, Vec3, usize); BINS],
+    boxes: [(Bounds, usize); BINS],
 }
 
 impl Bins {
     /// Splits `part` across `axis`, whose centroids span `range`, at the cheapest boundary
-    /// between bins: the triangles of the bins below it first. The number below, or `None`
-    /// (`part` untouched) when no boundary leaves enough on each side.
-    fn split(part: &mut [Item], axis: usize, (low, high): (f32, f32)) -> Option<usize> {
+    /// between bins: the triangles of the bins below it first. The number below and the bounds
+    /// of each side, or `None` (`part` untouched) when no boundary leaves enough on each side.
+    fn split(
+        part: &mut [Item],
+        axis: usize,
+        (low, high): (f32, f32),
+    ) -> Option<(usize, Bounds, Bounds)> {
         let width = high - low;
         // Also none for a NaN width.
         if width.partial_cmp(&0.0) != Some(Ordering::Greater) {
@@ -678,10 +730,10 @@ impl Bins {
         }
         let scale = BINS as f32 / width;
         let bin = |key: Vec3| (((key[axis] - low) * scale) as usize).min(BINS - 1);
-        let mut bins = Bins { boxes: [(Vec3::INFINITY, Vec3::NEG_INFINITY, 0); BINS] };
+        let mut bins = Bins { boxes: [(Bounds::empty(), 0); BINS] };
         for item in part.iter() {
             let slot = &mut bins.boxes[bin(item.centroid)];
-            *slot = (slot.0.min(item.min), slot.1.max(item.max), slot.2 + 1);
+            *slot = (slot.0.union(Bounds::of(item)), slot.1 + 1);
         }
         let boundary = bins.cheapest()?;
         let mut below = 0;
@@ -691,17 +743,20 @@ impl Bins {
                 below += 1;
             }
         }
-        Some(below)
+        let side = |range: std::ops::Range<usize>| {
+            bins.boxes[range].iter().fold(Bounds::empty(), |acc, b| acc.union(b.0))
+        };
+        Some((below, side(0..boundary), side(boundary..BINS)))
     }
 
     /// The boundary (1 to `BINS - 1`, the first bin above it) whose two sides' measures
     /// times their triangles sum least, among those with at least [`SIDE`] of the triangles on
     /// each side.
     fn cheapest(&self) -> Option<usize> {
-        let total: usize = self.boxes.iter().map(|b| b.2).sum();
+        let total: usize = self.boxes.iter().map(|b| b.1).sum();
         let fewest = ((SIDE * total as f64).ceil() as usize).max(1);
-        let grow = |acc: (Vec3, Vec3, usize), b: &(Vec3, Vec3, usize)| {
-            (acc.0.min(b.0), acc.1.max(b.1), acc.2 + b.2)
+        let grow = |acc: (Vec3, Vec3, usize), b: &(Bounds, usize)| {
+            (acc.0.min(b.0.min), acc.1.max(b.0.max), acc.2 + b.1)
         };
         let cost = |(a, b, n): (Vec3, Vec3, usize)| area((b - a).as_dvec3()) * n as f64;
         let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY, 0);
@@ -1336,6 +1391,34 @@ mod tests {
         }
         assert!(seen.iter().all(|&k| k == 1), "every triangle in exactly one leaf");
         assert!(deepest <= 40, "{deepest} levels, the stack holds {DEPTH}");
+    }
+
+    /// A split at a bin boundary hands each side the bounds of its triangles: the same box and
+    /// centroid box as a pass over them, number for number.
+    #[test]
+    fn a_split_gives_each_side_the_bounds_of_its_triangles() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut items: Vec<Item> = (0..1_000u32)
+            .map(|t| {
+                let a = DVec3::new(rng.random(), rng.random(), rng.random()) * 2.0 - 1.0;
+                let corners = [a, a + DVec3::X * rng.random::<f64>(), a + DVec3::Z * 0.01];
+                let (min, max) = corner_box(&corners);
+                let [min, max] = rounded_outward(min, max);
+                let centroid = ((corners[0] + corners[1] + corners[2]) / 3.0).as_vec3();
+                Item { centroid, min, max, t }
+            })
+            .collect();
+        let bounds = Bounds::over(&items);
+        let (_, children) = split(&mut items, bounds, LEAF);
+        let (middle, below, above) = children.expect("a thousand triangles are split");
+        assert!(middle > 0 && middle < items.len());
+        for (given, part) in [(below, &items[..middle]), (above, &items[middle..])] {
+            let passed = Bounds::over(part);
+            assert_eq!(
+                [given.min, given.max, given.low, given.high],
+                [passed.min, passed.max, passed.low, passed.high]
+            );
+        }
     }
 
     /// The number of triangles in the leaves under node `n`.
