@@ -95,6 +95,15 @@ pub struct LevelOptions {
     /// from its zero set at the 99.9th percentile (`mesh_distance`): sharp corners and thin
     /// spikes that the goal's voxels round off, which E on the voxels does not see.
     pub mesh_slack: f64,
+    /// The paper's loop that would hand over at `loop_constraints` forecasts from this share
+    /// of them on how many it needs for its target (its lowest E so far times its constraints
+    /// over the target: E falls about as one over the constraints), and hands over at once
+    /// where that is more than `forecast_margin` times `loop_constraints`. Below this share its
+    /// E falls too unevenly to forecast (it halves or doubles from one iteration to the next).
+    pub forecast_from: f64,
+    /// See `forecast_from`: the forecast is a rough one, and a loop on course to meet its target
+    /// near `loop_constraints` goes on. `f64::INFINITY` turns the forecast off.
+    pub forecast_margin: f64,
     /// Centres of a level are at least this fraction of its support radius apart.
     pub spacing: f64,
     /// A point's error is worth correcting above this fraction of the target.
@@ -108,6 +117,8 @@ impl Default for LevelOptions {
             min_axis: 384,
             max_goal_axis: 512,
             loop_constraints: 1_000,
+            forecast_from: 0.3,
+            forecast_margin: 1.5,
             mesh_slack: 0.5,
             base_target_error: 2.0,
             first_radius: 4.0,
@@ -147,6 +158,7 @@ pub fn stalled(report: &FitReport, grid: &Grid, options: &FitOptions) -> bool {
         Termination::NoImprovement { .. }
             | Termination::NoCandidate
             | Termination::LoopLimit { .. }
+            | Termination::LoopForecast { .. }
     );
     stalled
         && report.error_by(options.error_measure) > options.target_error
@@ -209,7 +221,9 @@ const NEAR: f64 = 0.5;
 pub(crate) fn after_stall(options: &FitOptions) -> FitOptions {
     let mut options = options.clone();
     options.levels.min_axis = 0;
-    options.max_constraints = Some(options.constraint_limit().min(options.levels.loop_constraints));
+    let limit = options.constraint_limit().min(options.levels.loop_constraints);
+    options.max_constraints = Some(limit);
+    options.hand_over = Some(super::HandOver::new(&options.levels, limit, options.target_error));
     options
 }
 
@@ -596,8 +610,12 @@ fn fit_base(
         current = next;
         level = coarser;
     }
-    let base_options =
-        FitOptions { target_error: options.levels.base_target_error, ..level_options };
+    // Level 0's forecast (after a stall) is for its own target, in voxels of the full grid.
+    let target_error = options.levels.base_target_error;
+    let hand_over = options
+        .hand_over
+        .map(|h| super::HandOver { target_error: target_error * level.voxel_scale(), ..h });
+    let base_options = FitOptions { target_error, hand_over, ..level_options };
     let stage = super::fit_level(&current.goal, &base_options, level, log, on_iteration)?;
     let grid = current.goal.grid();
     Ok((stage, (grid.dims, grid.voxel_size)))

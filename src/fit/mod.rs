@@ -148,6 +148,56 @@ pub struct FitOptions {
     pub levels: LevelOptions,
     /// How finely the fit stores its functions (see `compact.rs`).
     pub precision: compact::Precision,
+    /// Where the fit goes on with detail levels once the paper's loop hands over (set by the
+    /// pipeline with [`detail::loop_limit`]): the loop also stops once it is on course for more
+    /// constraints than that (see `on_course_past`).
+    #[serde(skip)]
+    pub(crate) hand_over: Option<HandOver>,
+}
+
+/// Where the paper's loop hands over to detail levels: at `constraints`, or earlier once its E
+/// forecasts more than [`LevelOptions::forecast_margin`] times as many for `target_error`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct HandOver {
+    /// The constraints ([`LevelOptions::loop_constraints`]).
+    pub constraints: usize,
+    /// The fit's target E, in voxels of its full grid.
+    pub target_error: f32,
+    /// [`LevelOptions::forecast_from`].
+    pub from: f64,
+    /// [`LevelOptions::forecast_margin`].
+    pub margin: f64,
+}
+
+impl HandOver {
+    /// A hand-over at `constraints` for `target_error` (voxels of the full grid), forecast as
+    /// `levels` says.
+    pub fn new(levels: &LevelOptions, constraints: usize, target_error: f32) -> HandOver {
+        HandOver {
+            constraints,
+            target_error,
+            from: levels.forecast_from,
+            margin: levels.forecast_margin,
+        }
+    }
+
+    /// The constraints a loop at `count` constraints whose lowest E so far is `lowest` (voxels
+    /// of the full grid) is on course for: E falls about as one over the constraints (their
+    /// spacing on the surface, and with it what the surface can do between them, shrinks as
+    /// they grow), so `count` times `lowest` over the target.
+    fn forecast(self, count: usize, lowest: f32) -> usize {
+        (count as f64 * f64::from(lowest) / f64::from(self.target_error)).ceil() as usize
+    }
+
+    /// Why the loop hands over at `count` constraints with `lowest` E so far (voxels of the
+    /// full grid), if it does on the forecast: from `from` times the constraints on, on course
+    /// for more than `margin` times them.
+    fn on_course_past(self, count: usize, lowest: f32) -> Option<Termination> {
+        let limit = self.constraints as f64;
+        let forecast = self.forecast(count, lowest);
+        (count as f64 >= self.from * limit && forecast as f64 > self.margin * limit)
+            .then_some(Termination::LoopForecast { constraints: count, forecast })
+    }
 }
 
 impl Default for FitOptions {
@@ -179,6 +229,7 @@ impl Default for FitOptions {
             regularity: RegularityOptions::default(),
             levels: LevelOptions::default(),
             precision: compact::Precision::default(),
+            hand_over: None,
         }
     }
 }
@@ -193,7 +244,8 @@ impl FitOptions {
     }
 
     /// Checks the settings a caller sets: a target E that is a number of voxels, at least one
-    /// iteration and one constraint.
+    /// iteration and one constraint, a forecast of the hand-over to detail levels that can be
+    /// made.
     ///
     /// # Errors
     /// The first setting out of its range, named (see [`crate::Error::worded`]).
@@ -210,6 +262,16 @@ impl FitOptions {
         }
         if self.max_constraints == Some(0) {
             return invalid("`max_constraints` must be at least 1".into());
+        }
+        let levels = &self.levels;
+        let from_ok = levels.forecast_from.is_finite() && levels.forecast_from >= 0.0;
+        let margin_ok = levels.forecast_margin > 0.0; // false for NaN
+        if !(from_ok && margin_ok) {
+            return invalid(format!(
+                "`levels.forecast_from` must be a finite share >= 0 and `levels.forecast_margin` \
+                 a number > 0, not {} and {}",
+                levels.forecast_from, levels.forecast_margin
+            ));
         }
         Ok(())
     }
@@ -508,13 +570,16 @@ fn iterate(
         }
         lowest_error = lowest_error.min(error);
         best_rms = best_rms.min(metrics.rms_error_subvoxel);
+        let lowest_in_full_voxels = lowest_error * level.voxel_scale();
         if let Some(reason) = stop_reason(
             &metrics,
             [iteration, log.per_iteration.len()],
             last_improvement,
             constraints.len(),
             options,
-        ) {
+        )
+        .or_else(|| options.hand_over?.on_course_past(constraints.len(), lowest_in_full_voxels))
+        {
             termination = reason;
             break;
         }
@@ -807,6 +872,27 @@ mod tests {
             stop_reason(&accurate, [2, 2], 2, 100, &options),
             Some(Termination::TargetError { target: 2.0, measure: ErrorMeasure::Voxel })
         );
+    }
+
+    /// The loop hands over on its forecast only from `forecast_from` of the constraints on, and
+    /// only where its lowest E times its constraints over the target passes `forecast_margin`
+    /// times them.
+    #[test]
+    fn the_loop_hands_over_where_its_e_forecasts_too_many_constraints() {
+        let hand_over = HandOver::new(&LevelOptions::default(), 1000, 2.0);
+        assert_eq!(hand_over.on_course_past(299, 100.0), None, "too early to forecast");
+        assert_eq!(
+            hand_over.on_course_past(300, 10.01),
+            Some(Termination::LoopForecast { constraints: 300, forecast: 1502 })
+        );
+        assert_eq!(hand_over.on_course_past(300, 10.0), None, "1500: within the margin");
+        assert_eq!(hand_over.on_course_past(750, 4.0), None, "on course for 1500");
+        assert!(hand_over.on_course_past(800, 4.0).is_some(), "on course for 1600");
+        let levels = LevelOptions { forecast_margin: f64::INFINITY, ..Default::default() };
+        assert_eq!(HandOver::new(&levels, 1000, 2.0).on_course_past(999, 100.0), None);
+        let mut options = FitOptions::default();
+        options.levels.forecast_margin = f64::NAN;
+        assert!(options.check().unwrap_err().to_string().contains("forecast_margin"));
     }
 
     /// 400 boundary constraints on a sphere of `radius`, with one inside and one outside.

@@ -220,6 +220,15 @@ pub enum Termination {
         /// The constraints.
         constraints: usize,
     },
+    /// The paper's loop, above its target, was on course for more than
+    /// [`super::LevelOptions::loop_constraints`] (its lowest E times its constraints over the
+    /// target), and the fit went on with detail levels (see `super::detail::loop_limit`).
+    LoopForecast {
+        /// The constraints.
+        constraints: usize,
+        /// The constraints it was on course for.
+        forecast: usize,
+    },
     /// The constraints reached the most whose solve fits in the memory limit (see
     /// [`crate::pipeline::Prepared::fit`]).
     MemoryLimit {
@@ -256,6 +265,10 @@ impl std::fmt::Display for Termination {
             Termination::LoopLimit { constraints } => write!(
                 f,
                 "reached {constraints} constraints above the target, where detail levels go on"
+            ),
+            Termination::LoopForecast { constraints, forecast } => write!(
+                f,
+                "on course for {forecast} constraints at {constraints}, where detail levels go on"
             ),
             Termination::MemoryLimit { constraints } => write!(
                 f,
@@ -507,8 +520,8 @@ impl FitReport {
                 let [bx, by, bz] = levels.base_dims;
                 let _ = writeln!(
                     s,
-                    "level 0 ({bx} x {by} x {bz}, {} centres) stopped: {} of its grid; kept \
-                     iteration {} of {}",
+                    "level 0 ({bx} x {by} x {bz}, {} centres) stopped: {}; kept iteration {} of \
+                     {}",
                     levels.base_centres, self.termination, self.best_iteration, self.iterations
                 );
                 levels.write_levels(&mut s);

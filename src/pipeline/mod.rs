@@ -1103,6 +1103,8 @@ impl<'a> Prepared<'a> {
                 let loop_limit = fit::detail::loop_limit(&self.grid, &self.options.fit, allowed);
                 let mut loop_options = options.clone();
                 loop_options.max_constraints = loop_limit.or(options.max_constraints);
+                loop_options.hand_over = loop_limit
+                    .map(|limit| fit::HandOver::new(&options.levels, limit, options.target_error));
                 let mut fitted =
                     fit::fit(&self.goal, &loop_options, &mut on_iteration).map_err(thin)?;
                 if let Some(limit) = loop_limit

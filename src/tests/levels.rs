@@ -305,9 +305,10 @@ fn a_fit_that_stalls_goes_on_with_detail_levels() {
 }
 
 /// A paper's loop that reaches `loop_constraints` above its target (here 150 on the
-/// triceratops at 128 voxels to a target of 1) hands over to detail levels: the report says the
-/// loop stopped there and the fit with levels meets the target. A constraint limit the caller
-/// sets is the loop's own: the loop stops at it, and nothing is tried again.
+/// triceratops at 128 voxels to a target of 1, its forecast off) hands over to detail levels:
+/// the report says the loop stopped there and the fit with levels meets the target. A
+/// constraint limit the caller sets is the loop's own: the loop stops at it, and nothing is
+/// tried again.
 #[test]
 fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
     let (mesh, _) = implicitize::mesh::read(crate::tests::support::data::triceratops()).unwrap();
@@ -315,6 +316,7 @@ fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
     options.resolution = Resolution::LongestAxis(128);
     options.fit.target_error = 1.0;
     options.fit.levels.loop_constraints = 150;
+    options.fit.levels.forecast_margin = f64::INFINITY;
     let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
     let stalled = fitted.report.paper_loop.expect("the loop hands over at 150 constraints");
     assert_eq!(stalled.termination, Termination::LoopLimit { constraints: 150 });
@@ -342,6 +344,34 @@ fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
     let limited = pipeline::fit_mesh(&mesh, &options).unwrap();
     assert_eq!(limited.report.termination, Termination::ConstraintLimit { limit: 150 });
     assert!(limited.report.paper_loop.is_none() && limited.report.levels.is_none());
+}
+
+/// A paper's loop whose E forecasts far more than `loop_constraints` for its target hands over
+/// as soon as it may forecast (here from 90 of 150 constraints on the triceratops at 128 voxels
+/// to a target of 1, where its E is several voxels), and the fit with levels meets the target
+/// (its level 0, on a quarter of the grid, meets its own with fewer than 90: a forecast from
+/// a smaller share would cut it short).
+#[test]
+fn a_loop_on_course_past_its_constraints_hands_over_at_once() {
+    let (mesh, _) = implicitize::mesh::read(crate::tests::support::data::triceratops()).unwrap();
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(128);
+    options.fit.target_error = 1.0;
+    options.fit.levels.loop_constraints = 150;
+    options.fit.levels.forecast_from = 0.6;
+    let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
+    let first = fitted.report.paper_loop.expect("the loop hands over on its forecast");
+    let Termination::LoopForecast { constraints, forecast } = first.termination else {
+        panic!("{first:?}")
+    };
+    assert!((90..150).contains(&constraints) && forecast > 225, "{first:?}");
+    let target = fitted.report.target.expect("a fit of a mesh has a target outcome");
+    assert!(target.met, "{target:?}");
+    assert!(
+        fitted.report.table("t").contains(&format!("(on course for {forecast} constraints at ")),
+        "{}",
+        fitted.report.table("t")
+    );
 }
 
 /// A regular tetrahedron, outward.
