@@ -304,6 +304,16 @@ fn a_fit_that_stalls_goes_on_with_detail_levels() {
     assert_eq!(without.report.max_error_voxels, stalled.max_error_voxels);
 }
 
+/// The triceratops at 128 voxels to a target of 1, its loop handing over at 150 constraints.
+fn triceratops_handing_over_at_150() -> (Mesh, MeshFitOptions) {
+    let (mesh, _) = implicitize::mesh::read(crate::tests::support::data::triceratops()).unwrap();
+    let mut options = MeshFitOptions::default();
+    options.resolution = Resolution::LongestAxis(128);
+    options.fit.target_error = 1.0;
+    options.fit.levels.loop_constraints = 150;
+    (mesh, options)
+}
+
 /// A paper's loop that reaches `loop_constraints` above its target (here 150 on the
 /// triceratops at 128 voxels to a target of 1, its forecast off) hands over to detail levels:
 /// the report says the loop stopped there and the fit with levels meets the target. A
@@ -311,11 +321,7 @@ fn a_fit_that_stalls_goes_on_with_detail_levels() {
 /// tried again.
 #[test]
 fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
-    let (mesh, _) = implicitize::mesh::read(crate::tests::support::data::triceratops()).unwrap();
-    let mut options = MeshFitOptions::default();
-    options.resolution = Resolution::LongestAxis(128);
-    options.fit.target_error = 1.0;
-    options.fit.levels.loop_constraints = 150;
+    let (mesh, mut options) = triceratops_handing_over_at_150();
     options.fit.levels.forecast_margin = f64::INFINITY;
     let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
     let stalled = fitted.report.paper_loop.expect("the loop hands over at 150 constraints");
@@ -353,11 +359,7 @@ fn a_loop_past_its_constraints_hands_over_to_detail_levels() {
 /// a smaller share would cut it short).
 #[test]
 fn a_loop_on_course_past_its_constraints_hands_over_at_once() {
-    let (mesh, _) = implicitize::mesh::read(crate::tests::support::data::triceratops()).unwrap();
-    let mut options = MeshFitOptions::default();
-    options.resolution = Resolution::LongestAxis(128);
-    options.fit.target_error = 1.0;
-    options.fit.levels.loop_constraints = 150;
+    let (mesh, mut options) = triceratops_handing_over_at_150();
     options.fit.levels.forecast_from = 0.6;
     let fitted = pipeline::fit_mesh(&mesh, &options).unwrap();
     let first = fitted.report.paper_loop.expect("the loop hands over on its forecast");
